@@ -1,0 +1,82 @@
+"""Per-DOF [min, max] ranges.
+
+A limits file is JSON ``{"name", "source", "dofs": {dof_name: [min, max]}}``: angles in **degrees**,
+root translations in metres (``null`` = unbounded). Every DOF must be listed. Presets ship in
+``presets/limits_<name>.json``: ``default`` (physiological ranges of motion) and ``walking`` (the
+paper's tighter ranges). ``root_yaw`` is periodic: it is wrapped, not clipped.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import IPFError, require
+from .model import DOF_INDEX, DOF_NAMES, DOFS, NUM_DOF, PERIODIC_DOFS
+
+PRESET_DIR = Path(__file__).parent / "presets"
+PRESETS = ("default", "walking")
+_UNBOUNDED = 1e3  # metres: stands for "no limit" on root translation
+
+
+class Limits(NamedTuple):
+    """lower, upper : (D,) float64 arrays, radians / metres."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    name: str
+
+    def clip(self, x: np.ndarray) -> np.ndarray:
+        """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi)."""
+        x = np.clip(x, self.lower, self.upper)
+        for i in PERIODIC_DOFS:
+            x[..., i] = (x[..., i] + np.pi) % (2 * np.pi) - np.pi
+        return x
+
+    def width(self) -> np.ndarray:
+        return self.upper - self.lower
+
+
+def load_limits(preset_or_path: str | Path = "default") -> Limits:
+    """Load a preset by name (``default``, ``walking``) or a limits JSON file."""
+    p = str(preset_or_path)
+    path = PRESET_DIR / f"limits_{p}.json" if p in PRESETS else Path(p)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise IPFError(f"limits file not found (presets: {', '.join(PRESETS)})", path) from None
+    except (OSError, ValueError) as e:
+        raise IPFError(f"not a readable JSON limits file ({e})", path) from None
+    dofs = doc.get("dofs") if isinstance(doc, dict) else None
+    require(isinstance(dofs, dict), "limits file needs a 'dofs' object", path)
+    missing = [n for n in DOF_NAMES if n not in dofs]
+    require(not missing, f"limits file misses DOFs: {', '.join(missing)}", path)
+    unknown = sorted(set(dofs) - set(DOF_NAMES))
+    require(not unknown, f"unknown DOFs in limits file: {', '.join(unknown)}", path)
+    lower = np.empty(NUM_DOF)
+    upper = np.empty(NUM_DOF)
+    for d in DOFS:
+        rng = dofs[d.name]
+        require(isinstance(rng, list) and len(rng) == 2, f"{d.name}: range must be [min, max]", path)
+        lo, hi = (-_UNBOUNDED if rng[0] is None else rng[0]), (_UNBOUNDED if rng[1] is None else rng[1])
+        try:
+            lo, hi = float(lo), float(hi)
+        except (TypeError, ValueError):
+            raise IPFError(f"{d.name}: range values must be numbers", path) from None
+        require(np.isfinite(lo) and np.isfinite(hi), f"{d.name}: range must be finite", path)
+        require(lo <= hi, f"{d.name}: min {lo} > max {hi}", path)
+        if d.unit == "rad":
+            lo, hi = np.deg2rad(lo), np.deg2rad(hi)
+        lower[DOF_INDEX[d.name]], upper[DOF_INDEX[d.name]] = lo, hi
+    return Limits(lower, upper, str(doc.get("name", path.stem)))
+
+
+def limits_to_json(limits: Limits) -> dict:
+    out = {}
+    for d, lo, hi in zip(DOFS, limits.lower, limits.upper):
+        if d.unit == "rad":
+            lo, hi = np.rad2deg(lo), np.rad2deg(hi)
+        out[d.name] = [float(lo), float(hi)]
+    return {"name": limits.name, "dofs": out}

@@ -1,0 +1,81 @@
+"""Subject shape: segment lengths, joint offsets and capsule radii (metres).
+
+A shape file is JSON ``{"height_m": H, "params": {name: metres, ...}}`` with every name of
+:data:`ipf_jax.body.model.SHAPE_PARAM_NAMES`. The default adult (``presets/shape_default.json``) is
+1.75 m tall; :meth:`BodyShape.scaled_to` scales every length and radius uniformly to another height.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import IPFError, require
+from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
+
+PRESET_DIR = Path(__file__).parent / "presets"
+
+
+class BodyShape(NamedTuple):
+    """Subject shape.
+
+    values : (P,) float array, metres, in :data:`SHAPE_PARAM_NAMES` order.
+    height_m : standing height the values correspond to.
+    """
+
+    values: np.ndarray
+    height_m: float
+
+    def __getitem__(self, key):  # type: ignore[override]
+        if isinstance(key, str):
+            return float(self.values[SHAPE_INDEX[key]])
+        return tuple.__getitem__(self, key)
+
+    def scaled_to(self, height_m: float) -> "BodyShape":
+        """The same proportions at another standing height."""
+        require(np.isfinite(height_m) and 0.5 <= height_m <= 2.6,
+                f"height {height_m} m is outside 0.5..2.6 m")
+        k = height_m / self.height_m
+        return BodyShape(np.asarray(self.values, np.float64) * k, float(height_m))
+
+    def to_json(self) -> dict:
+        return {"height_m": self.height_m,
+                "params": {n: float(v) for n, v in zip(SHAPE_PARAM_NAMES, self.values)}}
+
+
+def load_shape(path: str | Path) -> BodyShape:
+    """Read a shape file (see module docstring); raises :class:`IPFError` on any problem."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise IPFError("shape file not found", path) from None
+    except (OSError, ValueError) as e:
+        raise IPFError(f"not a readable JSON shape file ({e})", path) from None
+    require(isinstance(doc, dict) and isinstance(doc.get("params"), dict),
+            "shape file needs a 'params' object", path)
+    params = doc["params"]
+    missing = [n for n in SHAPE_PARAM_NAMES if n not in params]
+    require(not missing, f"shape file misses parameters: {', '.join(missing)}", path)
+    unknown = sorted(set(params) - set(SHAPE_PARAM_NAMES))
+    require(not unknown, f"unknown shape parameters: {', '.join(unknown)}", path)
+    try:
+        values = np.array([float(params[n]) for n in SHAPE_PARAM_NAMES])
+        height = float(doc.get("height_m", 1.75))
+    except (TypeError, ValueError):
+        raise IPFError("shape parameters must be numbers (metres)", path) from None
+    require(bool(np.all(np.isfinite(values))), "shape parameters must be finite", path)
+    radii = [i for n, i in SHAPE_INDEX.items() if n.endswith(("_r", "_r0", "_r1", "_r_low", "_r_high"))]
+    require(bool(np.all(values[radii] > 0)), "capsule radii must be positive", path)
+    lengths = [SHAPE_INDEX[n] for n in ("thigh", "shank", "trunk", "upper_arm", "forearm", "neck")]
+    require(bool(np.all(values[lengths] > 0)), "segment lengths must be positive", path)
+    require(0.5 <= height <= 2.6, f"height_m {height} is outside 0.5..2.6 m", path)
+    return BodyShape(values, height)
+
+
+def default_shape(height_m: float | None = None) -> BodyShape:
+    """The default adult (1.75 m), optionally scaled to ``height_m``."""
+    shape = load_shape(PRESET_DIR / "shape_default.json")
+    return shape if height_m is None else shape.scaled_to(height_m)

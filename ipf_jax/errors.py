@@ -1,0 +1,24 @@
+"""One exception type for every input or setting problem a user can fix.
+
+Readers and validators raise :class:`IPFError` with the offending file (when there is one) and a
+short statement of what is wrong; the CLI prints ``error: <file>: <problem>`` on one line and exits
+with status 2. Anything else escaping to the CLI is a bug and keeps its traceback.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class IPFError(Exception):
+    """A user-facing error: bad input file, impossible setting, unusable data."""
+
+    def __init__(self, message: str, path: str | Path | None = None):
+        self.path = None if path is None else str(path)
+        self.message = message
+        super().__init__(f"{self.path}: {message}" if self.path else message)
+
+
+def require(condition: bool, message: str, path: str | Path | None = None) -> None:
+    """Raise :class:`IPFError` unless ``condition`` holds."""
+    if not condition:
+        raise IPFError(message, path)
