@@ -30,10 +30,10 @@ class Limits(NamedTuple):
 
     def clip(self, x: np.ndarray) -> np.ndarray:
         """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi)."""
-        x = np.clip(x, self.lower, self.upper)
-        for i in PERIODIC_DOFS:
+        x = np.array(x, dtype=float, copy=True)
+        for i in PERIODIC_DOFS:  # wrap first: a heading of 190 deg is -170 deg, not 180
             x[..., i] = (x[..., i] + np.pi) % (2 * np.pi) - np.pi
-        return x
+        return np.clip(x, self.lower, self.upper)
 
     def width(self) -> np.ndarray:
         return self.upper - self.lower

@@ -1,0 +1,93 @@
+"""Body model topology, shape files and limits files."""
+import json
+
+import numpy as np
+import pytest
+
+from ipf_jax.body import DOF_NAMES, NUM_DOF, POINT_NAMES, SEGMENT_NAMES, default_shape, load_limits, load_shape
+from ipf_jax.body import model
+from ipf_jax.body.limits import PRESET_DIR
+from ipf_jax.errors import IPFError
+
+
+def test_topology_counts_and_names():
+    assert POINT_NAMES == ("sacrum", "left_hip", "left_knee", "left_ankle", "left_heel", "left_toe",
+                           "right_hip", "right_knee", "right_ankle", "right_heel", "right_toe", "neck",
+                           "head", "left_shoulder", "left_elbow", "left_wrist", "right_shoulder",
+                           "right_elbow", "right_wrist")
+    assert len(SEGMENT_NAMES) == 17 and NUM_DOF == 31
+    assert DOF_NAMES[:6] == ("root_tx", "root_ty", "root_tz", "root_yaw", "root_pitch", "root_roll")
+
+
+def test_four_kinematic_chains_hang_off_the_trunk():
+    children = {}
+    for f in model.FRAMES:
+        children.setdefault(f.parent, []).append(f.name)
+    chains = [c for c in children["pelvis"] if c.endswith("thigh")] + \
+             [c for c in children["trunk"] if c.endswith("upper_arm")]
+    assert sorted(chains) == ["left_thigh", "left_upper_arm", "right_thigh", "right_upper_arm"]
+
+
+def test_default_shape_and_height_scaling():
+    s = default_shape()
+    assert s.height_m == pytest.approx(1.75)
+    t = s.scaled_to(1.9)
+    assert t["thigh"] == pytest.approx(s["thigh"] * 1.9 / 1.75)
+    assert t.height_m == 1.9
+    with pytest.raises(IPFError, match="height"):
+        s.scaled_to(4.0)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["params"].pop("thigh"), "misses parameters: thigh"),
+    (lambda d: d["params"].update(thigh_r0=-0.1), "radii must be positive"),
+    (lambda d: d["params"].update(thigh="long"), "must be numbers"),
+    (lambda d: d["params"].update(wings=1.0), "unknown shape parameters: wings"),
+])
+def test_bad_shape_files_name_the_problem(tmp_path, edit, message):
+    doc = default_shape().to_json()
+    edit(doc)
+    path = tmp_path / "shape.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match=message) as err:
+        load_shape(path)
+    assert err.value.path == str(path)
+
+
+def test_limits_presets():
+    d = load_limits("default")
+    w = load_limits("walking")
+    knee = DOF_NAMES.index("left_knee_flexion")
+    hip = DOF_NAMES.index("right_hip_flexion")
+    assert d.lower[knee] == 0.0 and w.lower[knee] == 0.0  # knees never hyperextend
+    assert np.rad2deg([w.lower[hip], w.upper[hip]]) == pytest.approx([-30.0, 60.0])
+    assert np.all(w.lower >= d.lower) and np.all(w.upper <= d.upper)
+
+
+def test_limits_clip_wraps_yaw():
+    lim = load_limits("default")
+    x = np.zeros((2, NUM_DOF))
+    x[0, 3] = np.deg2rad(190.0)
+    x[1, DOF_NAMES.index("left_knee_flexion")] = -0.5
+    y = lim.clip(x.copy())
+    assert np.rad2deg(y[0, 3]) == pytest.approx(-170.0)
+    assert y[1, DOF_NAMES.index("left_knee_flexion")] == 0.0
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["dofs"].update(left_knee_flexion=[30, 10]), "min 30.0 > max 10.0"),
+    (lambda d: d["dofs"].pop("root_yaw"), "misses DOFs: root_yaw"),
+    (lambda d: d["dofs"].update(left_knee_flexion=[0, "x"]), "must be numbers"),
+])
+def test_bad_limits_files(tmp_path, edit, message):
+    doc = json.loads((PRESET_DIR / "limits_default.json").read_text())
+    edit(doc)
+    path = tmp_path / "limits.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match=message):
+        load_limits(path)
+
+
+def test_missing_limits_file_lists_presets(tmp_path):
+    with pytest.raises(IPFError, match="presets: default, walking"):
+        load_limits(tmp_path / "nope.json")
