@@ -104,26 +104,22 @@ def model_bbox(caps: jnp.ndarray) -> jnp.ndarray:
     return jnp.clip(box, -1e6, 1e6).astype(jnp.int32)
 
 
-@jax.jit
-def _chunk_bbox(q, shape_values, up, cams):
+def _geometry_impl(q, shape_values, up, cams):
+    """Stage 0: (B, D) particles -> (B, C, S, 15) capsule records and the chunk's (C, 4) bbox."""
     caps = jax.vmap(project_capsules, in_axes=(0, None, None, None))(q, shape_values, up, cams)
     box = model_bbox(caps)  # (B, C, 4)
-    return jnp.stack([box[..., 0].min(0), box[..., 1].max(0), box[..., 2].min(0), box[..., 3].max(0)], -1)
+    union = jnp.stack([box[..., 0].min(0), box[..., 1].max(0), box[..., 2].min(0), box[..., 3].max(0)], -1)
+    return caps, union
 
 
-def _intervals_impl(q, shape_values, up, cams, row0, widths, n_rows, qs, long_side):
-    """Stage 1 (scanline): (B, D) particles -> (B, C, S, R) packed row intervals."""
+def _intervals_impl(caps, row0, widths, n_rows, qs, long_side):
+    """Stage 1 (scanline): (B, C, S, 15) records -> (B, C, S, R) packed row intervals."""
 
-    def one_particle(qi):
-        caps = project_capsules(qi, shape_values, up, cams)  # (C, S, 15)
+    def one_camera(c, r0, wd):
+        rows = r0 + jnp.arange(n_rows, dtype=jnp.int32)
+        return interval_stage(c, rows, qs, long_side, wd)
 
-        def one_camera(c, r0, wd):
-            rows = r0 + jnp.arange(n_rows, dtype=jnp.int32)
-            return interval_stage(c, rows, qs, long_side, wd)
-
-        return jax.vmap(one_camera)(caps, row0, widths)
-
-    return jax.vmap(one_particle)(q)
+    return jax.vmap(jax.vmap(one_camera), in_axes=(0, None, None))(caps, row0, widths)
 
 
 def _words_impl(packed, words, row0, word0, heights, widths, n_rows, n_words):
@@ -137,21 +133,18 @@ def _words_impl(packed, words, row0, word0, heights, widths, n_rows, n_words):
         packed, words, row0, word0, heights, widths)
 
 
-def _dense_impl(q, shape_values, up, cams, words, row0, word0, heights, widths,
-                n_rows, n_words, qs, long_side):
-    """The dense kernel in one call: (B, D) particles -> (B, C, 2)."""
+def _dense_impl(caps, words, row0, word0, heights, widths, n_rows, n_words, qs, long_side):
+    """The dense kernel: (B, C, S, 15) records -> (B, C, 2)."""
 
-    def one_particle(qi):
-        caps = project_capsules(qi, shape_values, up, cams)
+    def one_camera(c, w, r0, w0, h, wd):
+        return jnp.stack(dense_counts(c, w, Roi(r0, w0), n_rows, n_words, qs, long_side, h, wd))
 
-        def one_camera(c, w, r0, w0, h, wd):
-            return jnp.stack(dense_counts(c, w, Roi(r0, w0), n_rows, n_words, qs, long_side, h, wd))
-
-        return jax.vmap(one_camera)(caps, words, row0, word0, heights, widths)
-
-    return jax.vmap(one_particle)(q)
+    per_particle = jax.vmap(one_camera, in_axes=(0, 0, 0, 0, 0, 0))
+    return jax.vmap(per_particle, in_axes=(0, None, None, None, None, None))(
+        caps, words, row0, word0, heights, widths)
 
 
+_geometry_jit = jax.jit(_geometry_impl)
 _intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_rows", "qs", "long_side"))
 _words_jit = jax.jit(_words_impl, static_argnames=("n_rows", "n_words"))
 _dense_jit = jax.jit(_dense_impl, static_argnames=("n_rows", "n_words", "qs", "long_side"))
@@ -199,32 +192,33 @@ class Scorer:
                 block = np.concatenate([block, pad])
             yield start, block.astype(np.float32)
 
-    def model_bbox(self, particles: np.ndarray) -> np.ndarray:
-        """(C, 4) union of the model's bounding boxes over all particles."""
-        boxes = [np.asarray(_chunk_bbox(block, self.shape_values, self.up, self.cams))
-                 for _, block in self._chunks(particles)]
-        boxes = np.stack(boxes)
-        return np.stack([boxes[..., 0].min(0), boxes[..., 1].max(0),
-                         boxes[..., 2].min(0), boxes[..., 3].max(0)], -1)
+    def geometry(self, particles: np.ndarray):
+        """Stage 0 for every chunk: capsule records (kept on device) and the model's (C, 4) bbox."""
+        caps, boxes = [], []
+        for _, block in self._chunks(particles):
+            c, box = _geometry_jit(block, self.shape_values, self.up, self.cams)
+            caps.append(c)
+            boxes.append(box)
+        boxes = np.stack([np.asarray(b) for b in boxes])
+        union = np.stack([boxes[..., 0].min(0), boxes[..., 1].max(0),
+                          boxes[..., 2].min(0), boxes[..., 3].max(0)], -1)
+        return caps, union
 
-    def roi(self, particles: np.ndarray, full: bool = False):
+    def roi(self, model_box: np.ndarray, full: bool = False):
         """Window offsets (row0, word0) per camera and the static bucket (n_rows, n_words).
 
         Only the model's pixels need to be inside the window: Nc counts model pixels on the mask
-        and |mask| is known, so the (possibly cluttered) mask's extent does not matter.
+        and |mask| is known, so the (possibly cluttered) mask's extent does not matter. The bucket
+        only grows, so a run compiles a handful of shapes, never one per frame.
         """
+        n_cam = len(self.cameras)
         if full:
             self._bucket = (self.h_pad, self.w_words)
-            return np.zeros(len(self.cameras), np.int32), np.zeros(len(self.cameras), np.int32)
-        mb = self.model_bbox(particles)
-        r_lo = np.empty(len(self.cameras), np.int64)
-        r_hi, c_lo, c_hi = r_lo.copy(), r_lo.copy(), r_lo.copy()
-        for c in range(len(self.cameras)):
-            r_lo[c] = np.clip(mb[c, 0], 0, self.heights[c] - 1)
-            r_hi[c] = np.clip(mb[c, 1], 0, self.heights[c] - 1)
-            c_lo[c] = np.clip(mb[c, 2], 0, self.widths[c] - 1)
-            c_hi[c] = np.clip(mb[c, 3], 0, self.widths[c] - 1)
-        w_lo, w_hi = c_lo // WORD, c_hi // WORD
+            return np.zeros(n_cam, np.int32), np.zeros(n_cam, np.int32)
+        r_lo = np.clip(model_box[:, 0], 0, self.heights - 1)
+        r_hi = np.clip(model_box[:, 1], 0, self.heights - 1)
+        w_lo = np.clip(model_box[:, 2], 0, self.widths - 1) // WORD
+        w_hi = np.clip(model_box[:, 3], 0, self.widths - 1) // WORD
         need_rows = int((r_hi - r_lo + 1).max())
         need_words = int((w_hi - w_lo + 1).max())
         rows_step = max(16, -(-self.h_pad // 16))
@@ -244,27 +238,24 @@ class Scorer:
         if not np.all(np.isfinite(particles)):
             raise IPFError("particles contain NaN or inf")
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
-        row0, word0 = self.roi(particles, full=full_roi)
+        if obs.words.shape[1:] != (self.h_pad, self.w_words):
+            raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
+        caps, box = self.geometry(particles)
+        row0, word0 = self.roi(box, full=full_roi)
         n_rows, n_words = self._bucket
-        words = obs.words
-        if words.shape[1:] != (self.h_pad, self.w_words):
-            raise IPFError(f"mask size {words.shape[1:]} does not match the cameras' scoring size")
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
-        for start, block in self._chunks(particles):
+        for (start, _), c in zip(self._chunks(particles), caps):
             if self.kernel == "scanline":
-                # two compiled stages: fused together, XLA recomputes the intervals per word
-                packed = _intervals_jit(block, self.shape_values, self.up, self.cams, row0,
-                                        self.widths, n_rows=n_rows, qs=self.q,
+                # separate compiled stages: fused together, XLA recomputes the intervals per word
+                packed = _intervals_jit(c, row0, self.widths, n_rows=n_rows, qs=self.q,
                                         long_side=self.long_side)
-                res = _words_jit(packed, words, row0, word0, self.heights, self.widths,
+                res = _words_jit(packed, obs.words, row0, word0, self.heights, self.widths,
                                  n_rows=n_rows, n_words=n_words)
             else:
-                res = _dense_jit(block, self.shape_values, self.up, self.cams, words, row0, word0,
-                                 self.heights, self.widths, n_rows=n_rows, n_words=n_words,
-                                 qs=self.q, long_side=self.long_side)
-            res = np.asarray(res)
+                res = _dense_jit(c, obs.words, row0, word0, self.heights, self.widths, n_rows=n_rows,
+                                 n_words=n_words, qs=self.q, long_side=self.long_side)
             take = min(self.chunk, len(particles) - start)
-            out[start:start + take] = res[:take]
+            out[start:start + take] = np.asarray(res)[:take]
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
         return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)

@@ -11,6 +11,7 @@ import numpy as np
 from .body.model import DOF_INDEX, NUM_DOF
 from .body.shape import BodyShape
 from .camera import Camera
+from .posing import place_on_floor
 from .reference.kinematics import forward_kinematics
 from .reference.likelihood import project_capsules
 from .reference.raster import model_mask
@@ -80,16 +81,11 @@ def procedural_walk(n_frames: int, fps: float = 20.0, *, speed: float = 1.2,
     U = up_rotation(up_axis)
     forward_world = U @ np.array([np.cos(heading), np.sin(heading), 0.0])
     side_world = U @ np.array([-np.sin(heading), np.cos(heading), 0.0])
-    up_world = U @ np.array([0.0, 0.0, 1.0])
     start_world = U @ np.array([start[0], start[1], 0.0])
     for i in range(n_frames):
         q[i, :3] = start_world + forward_world * speed * t[i] + side_world * 0.01 * np.sin(
             np.pi * stride_hz * 2 * t[i])
-        # drop the body onto the floor: the lowest capsule surface touches up . X = 0
-        pose = forward_kinematics(q[i], shape.values, U)
-        lowest = min(np.min(pose.seg_a @ up_world - pose.seg_r[:, 0]),
-                     np.min(pose.seg_b @ up_world - pose.seg_r[:, 1]))
-        q[i, :3] -= up_world * lowest
+        q[i] = place_on_floor(q[i], shape.values, U)
     return q
 
 

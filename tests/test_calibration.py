@@ -156,16 +156,26 @@ def test_uu_and_sports2d_geometry_says_which_way_is_up(uu_cams, sports2d_toml):
     assert (cam.R.T @ [0, -1, 0])[2] > 0.999
 
 
-@pytest.mark.xfail(strict=True, reason="world.detect_up_axis gives '+y' for the uu cameras "
-                   "(their centres are 4 m from the origin along +y); reported to the lead")
 def test_up_axis_uu(uu_cams):
     assert detect_up_axis(uu_cams) == "-z"
 
 
-@pytest.mark.xfail(strict=True, reason="world.detect_up_axis gives '+x' for the level sports2d "
-                   "camera (10 m along +x, looking along -x); reported to the lead")
 def test_up_axis_sports2d(sports2d_toml):
     assert detect_up_axis(read_toml(sports2d_toml)) == "+z"
+
+
+def test_up_axis_single_ceiling_camera_uses_the_silhouette(shared_data):
+    """One bodytrack ceiling camera (mounted rolled): only the person's long axis says which way is up."""
+    from ipf_jax.silhouette import read_mask
+
+    root = shared_data("mocap_walk_render/rajagopal_walk_clean_1cam")
+    cams = read_calibration(root / "CALIB")
+    assert detect_up_axis(cams, [read_mask(root / "FG1" / "image0000.png")]) == "+z"
+    # and each single bodytrack camera on the real sequenceB_2 masks
+    bt = shared_data("parsec_bodytrack/sequenceB_2")
+    for k in range(1, 5):
+        cam = read_calibration(bt / "CALIB" / f"Camera{k}.cal")
+        assert detect_up_axis(cam, [read_mask(bt / f"FG{k}" / "image0000.bmp")]) == "+z", k
 
 
 # --- projection against OpenCV -------------------------------------------------------------------

@@ -1,0 +1,119 @@
+"""Command line: a thin layer over the library. ``ipf-jax --help`` lists the commands.
+
+Every user-fixable problem is an :class:`ipf_jax.errors.IPFError`: printed as one line
+``error: <file>: <problem>`` on stderr with exit status 2, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from . import __version__
+from .errors import IPFError
+
+
+def _slice(text: str) -> slice:
+    try:
+        parts = [int(p) if p.strip() else None for p in text.split(":")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--frames must look like A:B or A:B:S (got {text!r})") from None
+    if len(parts) == 1:
+        return slice(parts[0], parts[0] + 1)
+    if len(parts) > 3:
+        raise argparse.ArgumentTypeError(f"--frames must look like A:B or A:B:S (got {text!r})")
+    return slice(*parts)
+
+
+def add_tracking_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by track, compare, and the sweep/batch configs."""
+    p.add_argument("--filter", default="ipf", help="ipf (default), apf or sir")
+    p.add_argument("--budget", type=int, help="likelihood evaluations per frame; each filter maps it onto its parameters")
+    p.add_argument("--particles", type=int, help="IPF: total particles N = M x I (largest M that fits)")
+    p.add_argument("--top-m", type=int, help="IPF: M, the distinct particles kept per frame (default 81)")
+    p.add_argument("--points-per-dof", type=int, help="IPF: grid points per interesting DOF (default 3 -> I = 81)")
+    p.add_argument("--interval-width", type=float,
+                   help="IPF: full interval width in degrees per frame (overrides --max-speed)")
+    p.add_argument("--max-speed", type=float, help="IPF: maximum angular speed of the interesting DOFs, deg/s")
+    p.add_argument("--interesting", help="IPF: comma-separated DOF names forming L (default: the 4 leg flexions)")
+    p.add_argument("--noise-scale", type=float, help="multiply the default per-DOF noise rates")
+    p.add_argument("--layers", type=int, help="APF: annealing layers (default 5)")
+    p.add_argument("--resolution", type=int, default=None, help="long side of the scoring images, px (default 320)")
+    p.add_argument("--fps", type=float, help="frame rate (default: from the video, else 20 Hz)")
+    p.add_argument("--height", type=float, help="subject height in metres (default: searched at initialisation)")
+    p.add_argument("--shape", help="subject shape JSON (default adult, scaled by --height)")
+    p.add_argument("--limits", default="default", help="DOF limits preset (default, walking) or JSON file")
+    p.add_argument("--up", help="world up axis (+x -x +y -y +z -z; default detected)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--chunk", type=int, default=512, help="particles per compiled call")
+    p.add_argument("--kernel", default="scanline", choices=["scanline", "dense"])
+    p.add_argument("--frames", type=_slice, help="Python slice of frame numbers, A:B (B excluded)")
+    p.add_argument("--init-pose", help="initial pose: poses.csv row file, or bodytrack InitialPose.txt")
+
+
+def _parser() -> argparse.ArgumentParser:
+    from .export import cli as export_cli
+    from .gait import cli as gait_cli
+
+    ap = argparse.ArgumentParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
+                                 "analysis by Interval Particle Filtering (JAX).")
+    ap.add_argument("--version", action="version", version=f"ipf-jax {__version__}")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("demo", help="self-rendered walk: render, track, report error and speed (no downloads)")
+    p.add_argument("--out", default="ipf-jax-demo", help="output folder (default ./ipf-jax-demo)")
+    p.add_argument("--frames", type=int, default=24, help="frames to track (default 24)")
+    p.add_argument("--cameras", type=int, default=3)
+    p.add_argument("--top-m", type=int, default=None, help="IPF M (default 81)")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func="demo")
+
+    p = sub.add_parser("track", help="track a dataset: joints.csv, poses.csv, run.json")
+    p.add_argument("dataset")
+    p.add_argument("--out", required=True)
+    add_tracking_options(p)
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
+    p.add_argument("--checkpoint-every", type=int, default=10)
+    p.add_argument("--overlay", action="store_true", help="save overlay PNGs of the fitted model")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func="track")
+
+    p = sub.add_parser("score", help="likelihood of given poses on one frame (JAX and/or NumPy)")
+    p.add_argument("dataset")
+    p.add_argument("--frame", type=int, required=True)
+    p.add_argument("--poses", required=True, help="CSV with one named column per DOF (poses.csv convention)")
+    p.add_argument("--out", required=True, help="output JSON")
+    p.add_argument("--backend", default="jax", choices=["jax", "numpy", "both"])
+    p.add_argument("--resolution", type=int, default=None)
+    p.add_argument("--height", type=float, default=None)
+    p.add_argument("--shape")
+    p.add_argument("--up")
+    p.set_defaults(func="score")
+
+    gait_cli.add_parser(sub)
+    export_cli.add_parser(sub)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = _parser()
+    args = ap.parse_args(argv)
+    if not isinstance(args.func, str):  # sub-packages with their own runner (gait, export)
+        return args.func(args)
+    from . import commands, jax_setup
+
+    jax_setup.configure()
+    try:
+        return getattr(commands, args.func)(args)
+    except IPFError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted (rows written so far are kept; rerun with --resume)", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        os._exit(1)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,122 @@
+"""What every filter shares: state/info records, noise, and the estimate of a weighted set."""
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import jax
+import numpy as np
+
+from ..body.limits import Limits
+
+Measure = Callable[[np.ndarray], np.ndarray]
+
+
+class FilterState(NamedTuple):
+    """particles : (N, D) float64;  weights : (N,) float64 likelihoods of those particles."""
+
+    particles: np.ndarray
+    weights: np.ndarray
+
+
+class FilterInfo(NamedTuple):
+    """Per-frame diagnostics.
+
+    best : (D,) heaviest particle (the estimate);  best_weight : its weight;
+    mean : (D,) weight-averaged particle;  evaluations : likelihood evaluations this frame.
+    """
+
+    best: np.ndarray
+    best_weight: float
+    mean: np.ndarray
+    evaluations: int
+
+
+class Filter(NamedTuple):
+    """A filter = pure functions + its exact per-frame likelihood budget."""
+
+    name: str
+    init: Callable[[np.ndarray, np.ndarray], FilterState]
+    step: Callable[[jax.Array, FilterState, Measure], tuple[FilterState, FilterInfo]]
+    evaluations_per_frame: int
+    params: dict
+
+
+def init_state(particles: np.ndarray, weights: np.ndarray) -> FilterState:
+    return FilterState(np.asarray(particles, float), np.asarray(weights, float))
+
+
+def gaussian_noise(rng_key: jax.Array, shape: tuple[int, ...], std: np.ndarray) -> np.ndarray:
+    """White noise with per-column ``std`` (last axis), drawn from an explicit JAX key.
+
+    Drawn in one call for the whole particle set, so the result never depends on chunking.
+    """
+    z = np.asarray(jax.random.normal(rng_key, shape, dtype=np.float32), np.float64)
+    return z * std
+
+
+def best_index(weights: np.ndarray) -> int:
+    """Index of the heaviest particle; ties go to the lowest index (NaN never wins)."""
+    w = np.where(np.isnan(weights), -np.inf, weights)
+    return int(np.argmax(w))
+
+
+def summarise(particles: np.ndarray, weights: np.ndarray, evaluations: int) -> FilterInfo:
+    """Estimate (heaviest particle) and weighted mean of a weighted particle set."""
+    i = best_index(weights)
+    w = np.where(np.isfinite(weights), np.maximum(weights, 0.0), 0.0)
+    mean = particles[i] if w.sum() <= 0 else (w[:, None] * particles).sum(0) / w.sum()
+    return FilterInfo(particles[i].copy(), float(weights[i]), mean, int(evaluations))
+
+
+def rate_std(rates_per_s: np.ndarray, fps: float) -> np.ndarray:
+    """Per-frame noise std from per-second rates: scaled by the frame interval 1/fps."""
+    return np.asarray(rates_per_s, float) / float(fps)
+
+
+def clip(limits: Limits, particles: np.ndarray) -> np.ndarray:
+    return limits.clip(particles)
+
+
+def default_noise_rates() -> np.ndarray:
+    """(D,) per-second noise std of every DOF (metres/s, rad/s), shared by all filters.
+
+    Set from how much each DOF changes between frames in normal walking (joint centres of a real
+    marker walk, fitted with our model: trunk and arms 1-3 deg per 50 ms, hips 5, knees 8-9 rms)
+    with head-room for faster movements. The root's translation is mostly explained by the body
+    origin positioning (:mod:`ipf_jax.origin`), so its noise covers only the residual.
+    Multiplied by 1/fps per frame.
+    """
+    from ..body.model import DOF_NAMES
+
+    deg = np.deg2rad
+    rates = {"root_tx": 0.3, "root_ty": 0.3, "root_tz": 0.2, "root_yaw": deg(40),
+             "root_pitch": deg(30), "root_roll": deg(30)}
+    for name in DOF_NAMES:
+        if name in rates:
+            continue
+        if name.startswith(("trunk", "head")) or name.endswith(
+                ("hip_abduction", "hip_rotation", "ankle_inversion")):
+            rates[name] = deg(40)
+        elif name.endswith("shoulder_flexion") or name.endswith(("shoulder_abduction", "shoulder_rotation")):
+            rates[name] = deg(60)
+        elif name.endswith("elbow_flexion"):
+            rates[name] = deg(80)
+        elif name.endswith("knee_flexion"):
+            rates[name] = deg(200)
+        else:  # hip flexion, ankle dorsiflexion
+            rates[name] = deg(100)
+    return np.array([rates[n] for n in DOF_NAMES])
+
+
+def resample_diffuse(rng_key: jax.Array, particles: np.ndarray, weights: np.ndarray, std: np.ndarray,
+                     limits: Limits, num: int | None = None) -> np.ndarray:
+    """Systematic resampling by ``weights`` then Gaussian diffusion of every DOF, clipped.
+
+    The shared prediction of SIR and each APF layer. particles (N, D) -> (num, D).
+    """
+    from .selection import systematic
+
+    k1, k2 = jax.random.split(rng_key)
+    num = len(particles) if num is None else num
+    idx = systematic(k1, weights, num)
+    return limits.clip(particles[idx] + gaussian_noise(k2, (num, particles.shape[1]), std))

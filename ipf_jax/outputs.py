@@ -1,0 +1,116 @@
+"""Run-directory files: ``joints.csv``, ``poses.csv`` (appended + fsynced frame by frame), ``run.json``.
+
+Rows are written with 6 decimals and ``nan`` for missing frames, so a run that is killed keeps
+every frame it finished, and a resumed run produces byte-identical files (see :mod:`.checkpoint`).
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from .body.model import DOF_NAMES, POINT_NAMES
+from .errors import IPFError, require
+
+JOINT_COLUMNS = ["frame", "time_s"] + [f"{p}_{a}" for p in POINT_NAMES for a in "xyz"]
+POSE_COLUMNS = ["frame", "time_s"] + list(DOF_NAMES)
+
+
+def _fmt(values) -> str:
+    return ",".join("nan" if not np.isfinite(v) else f"{v:.6f}" for v in values)
+
+
+class CsvAppender:
+    """Append rows to a CSV, flushing and fsyncing each one (crash-safe)."""
+
+    def __init__(self, path: Path, columns: list[str], keep_rows: int | None = None):
+        self.path = Path(path)
+        if keep_rows is None or not self.path.exists():
+            self.path.write_text(",".join(columns) + "\n")
+        else:
+            lines = self.path.read_text().splitlines(keepends=True)
+            require(lines and lines[0].strip() == ",".join(columns),
+                    "cannot resume: unexpected header", self.path)
+            require(len(lines) - 1 >= keep_rows,
+                    f"cannot resume: the file has {len(lines) - 1} rows, the checkpoint needs {keep_rows}",
+                    self.path)
+            self.path.write_text("".join(lines[: keep_rows + 1]))
+        self._fh = open(self.path, "a")
+
+    def write(self, frame: int, time_s: float, values: np.ndarray) -> None:
+        self._fh.write(f"{frame},{time_s:.6f},{_fmt(values)}\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+def write_json_atomic(path: Path, doc: dict) -> None:
+    """Write JSON via a temporary file and rename (never a half-written file)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        json.dump(doc, fh, indent=1, default=_json_default)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def check_writable(out_dir: Path) -> Path:
+    """Create ``out_dir`` and make sure we can write in it (one clear error otherwise)."""
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        probe = out_dir / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise IPFError(f"output folder is not writable ({e.strerror or e})", out_dir) from None
+    return out_dir
+
+
+class JointsTable(NamedTuple):
+    """A ``joints.csv``-convention table: frame (T,), time_s (T,), points (T, J, 3), names (J,)."""
+
+    frame: np.ndarray
+    time_s: np.ndarray
+    points: np.ndarray
+    names: tuple[str, ...]
+
+
+def read_joints_csv(path: str | Path) -> JointsTable:
+    """Read any CSV in the ``joints.csv`` convention (``frame,time_s,<point>_x/_y/_z``, extras ignored)."""
+    path = Path(path)
+    try:
+        with open(path) as fh:
+            header = fh.readline().strip().split(",")
+        data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
+    except FileNotFoundError:
+        raise IPFError("file not found", path) from None
+    except (OSError, ValueError, UnicodeDecodeError) as e:
+        raise IPFError(f"not a readable CSV ({e})", path) from None
+    require("frame" in header and "time_s" in header, "needs 'frame' and 'time_s' columns", path)
+    require(data.size > 0 and data.shape[1] == len(header), "no data rows or ragged rows", path)
+    names = []
+    for col in header:
+        if col.endswith("_x"):
+            name = col[:-2]
+            if f"{name}_y" in header and f"{name}_z" in header:
+                names.append(name)
+    require(names, "no <point>_x,_y,_z column triples", path)
+    idx = {c: i for i, c in enumerate(header)}
+    pts = np.stack([data[:, [idx[f"{n}_x"], idx[f"{n}_y"], idx[f"{n}_z"]]] for n in names], axis=1)
+    return JointsTable(data[:, idx["frame"]].astype(int), data[:, idx["time_s"]], pts, tuple(names))

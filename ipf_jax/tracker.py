@@ -1,0 +1,291 @@
+"""The tracking loop (host side): frames -> masks -> filter step -> estimate -> files.
+
+Per frame: read every camera's mask, resize it once to the scoring resolution, skip cameras with
+an empty mask (recorded), write a missing row when no camera sees anyone; otherwise run one filter
+step (or the automatic initialisation on the first frame), watch the confidence (best weight over
+its recent median) and re-initialise when it collapses. Rows are appended and fsynced per frame;
+a checkpoint every K frames makes ``resume=True`` continue exactly where a run stopped.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+import jax
+import numpy as np
+from tqdm import tqdm
+
+from . import __version__, checkpoint
+from .body.limits import Limits, limits_to_json, load_limits
+from .body.shape import BodyShape, default_shape, load_shape
+from .camera import Camera
+from .dataset import Dataset
+from .errors import IPFError, require
+from .filters import registry
+from .filters.base import FilterState
+from .initialise import InitSettings, initialise
+from .origin import anchor, root_shift
+from .likelihood import Observation, Scorer, make_observation, weights_from_counts
+from .outputs import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender, check_writable, write_json_atomic
+from .reference.kinematics import forward_kinematics
+from .silhouette import resize_mask
+from .world import AXES, detect_up_axis, up_rotation
+
+DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
+DEFAULT_FPS = 20.0  # the paper's rate
+
+
+class TrackSettings(NamedTuple):
+    filter: str = "ipf"
+    filter_options: dict = {}
+    budget: int | None = None
+    resolution: int = DEFAULT_RESOLUTION
+    fps: float | None = None
+    height_m: float | None = None
+    shape_file: str | None = None
+    limits: str = "default"
+    up_axis: str | None = None
+    seed: int = 0
+    chunk: int = 512
+    kernel: str = "scanline"
+    checkpoint_every: int = 10
+    confidence_drop: float = 0.5  # re-initialise below this fraction of the recent median weight...
+    confidence_patience: int = 2  # ...for this many consecutive frames
+    init: InitSettings = InitSettings()
+    init_pose: np.ndarray | None = None
+    origin_shift: bool = True  # body origin positioning from the silhouettes (see ipf_jax.origin)
+
+
+class RunResult(NamedTuple):
+    out_dir: Path
+    frames: list[int]
+    poses: np.ndarray  # (T, D), nan rows for missing frames
+    joints: np.ndarray  # (T, J, 3)
+    run: dict
+
+
+def _scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
+    require(16 <= resolution <= 2048, f"scoring resolution must be 16..2048 px (got {resolution})")
+    scales = [min(1.0, resolution / max(c.width, c.height)) for c in cameras]
+    return [c if s == 1.0 else c.scaled(s) for c, s in zip(cameras, scales)], scales
+
+
+def _settings_key(settings: TrackSettings, dataset: Dataset, frames: list[int]) -> str:
+    doc = {k: (v if not isinstance(v, np.ndarray) else v.tolist()) for k, v in settings._asdict().items()}
+    doc["init"] = settings.init._asdict()
+    doc["dataset"] = str(dataset.path.resolve()) if dataset.layout != "memory" else dataset.name
+    doc["frames"] = [frames[0], frames[-1], len(frames)] if frames else []
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+class Tracker:
+    """One tracking run over a dataset (see :func:`track`)."""
+
+    def __init__(self, dataset: Dataset, settings: TrackSettings, frames: list[int] | None = None):
+        self.dataset = dataset
+        self.settings = settings
+        self.frames = list(frames if frames is not None else dataset.frames)
+        require(len(self.frames) > 0, "no frames to track (check --frames)")
+        fps = settings.fps or dataset.fps or DEFAULT_FPS
+        require(np.isfinite(fps) and fps > 0, f"frame rate must be > 0 (got {fps})")
+        self.fps = float(fps)
+        up = (settings.up_axis or dataset.up_axis
+              or detect_up_axis(dataset.cameras, dataset.masks(self.frames[0])))
+        require(up in AXES, f"unknown up axis {up!r} (choose one of {', '.join(AXES)})")
+        self.up_axis = up
+        self.U = up_rotation(up)
+        self.limits: Limits = load_limits(settings.limits)
+        self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
+                                      else load_shape(settings.shape_file))
+        self.cameras, self.scales = _scoring_cameras(dataset.cameras, settings.resolution)
+        self.filter = registry.make(settings.filter, settings.filter_options, self.limits, self.fps,
+                                    budget=settings.budget)
+        self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
+                             chunk=settings.chunk)
+        self.key = jax.random.PRNGKey(settings.seed)
+
+    # -- per frame helpers -------------------------------------------------------------------
+    def observe(self, frame: int) -> tuple[Observation, list[np.ndarray]]:
+        masks = self.dataset.masks(frame)
+        small = [m if s == 1.0 else resize_mask(m, c.height, c.width)
+                 for m, s, c in zip(masks, self.scales, self.cameras)]
+        return make_observation(small), small
+
+    def measure(self, obs: Observation, shape: BodyShape | None = None):
+        def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
+            s = shp or shape
+            if s is not None and s is not self.scorer.shape:
+                self.scorer.set_shape(s)
+            return weights_from_counts(self.scorer.counts(particles, obs), obs.active)[0]
+        return fn
+
+    def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
+        return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
+
+    def initialise(self, frame: int, obs: Observation, small: list[np.ndarray], height: float | None):
+        s = self.settings
+        active = [i for i in range(len(small)) if obs.active[i]]
+        if s.init_pose is not None and height is None:
+            shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
+            q = self.limits.clip(np.asarray(s.init_pose, float)[None])
+            w = self.measure(obs, shape)(q)
+            return q, w, shape.height_m, 1
+        res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
+                         [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
+                         self.measure(obs), height_m=height if height is not None else s.height_m,
+                         settings=s.init)
+        return res.particles, res.weights, res.height_m, res.evaluations
+
+    # -- the loop ----------------------------------------------------------------------------
+    def run(self, out_dir: Path, *, resume: bool = False, progress: bool = True,
+            overlay: bool = False) -> RunResult:
+        out_dir = check_writable(Path(out_dir))
+        key = _settings_key(self.settings, self.dataset, self.frames)
+        if resume:
+            ck = checkpoint.load(out_dir)
+            if ck.settings_key != key:
+                raise IPFError("cannot resume: the run in this folder used other settings or data",
+                               out_dir)
+        else:
+            ck = checkpoint.Checkpoint(0, 0, None, None, None, [], 0, [], [], 0, key, None, 0.9)
+        joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, ck.rows if resume else None)
+        poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, ck.rows if resume else None)
+        state = None if ck.particles is None else FilterState(ck.particles, ck.weights)
+        height = ck.height_m
+        history, low_streak = list(ck.history), ck.low_streak
+        per_frame, reinits = list(ck.per_frame), list(ck.reinits)
+        init_evals = ck.init_evaluations
+        prev_anchor = None if ck.anchor is None else np.asarray(ck.anchor)
+        anchor_height = ck.anchor_height
+        rows = ck.rows
+        t_start = time.perf_counter()
+        bar = tqdm(self.frames[ck.next_index:], desc=f"track {self.dataset.name}", unit="frame",
+                   disable=not progress, initial=0, leave=True)
+        try:
+            for idx, frame in enumerate(bar, start=ck.next_index):
+                t0 = time.perf_counter()
+                obs, small = self.observe(frame)
+                time_s = frame / self.fps
+                skipped = [self.dataset.cameras[i].name for i in range(len(small)) if not obs.active[i]]
+                rec = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": skipped}
+                if not obs.active.any():
+                    nan = np.full(len(JOINT_COLUMNS) - 2, np.nan)
+                    joints_csv.write(frame, time_s, nan)
+                    poses_csv.write(frame, time_s, np.full(len(POSE_COLUMNS) - 2, np.nan))
+                    rec.update(status="missing", weight=None, confidence=None, evaluations=0)
+                else:
+                    status = "tracked"
+                    here = anchor([small[i] for i in range(len(small)) if obs.active[i]],
+                                  [self.cameras[i] for i in range(len(small)) if obs.active[i]],
+                                  self.U[:, 2], anchor_height)
+                    shift = root_shift(prev_anchor, here) if self.settings.origin_shift else np.zeros(3)
+                    if here is not None:
+                        prev_anchor = here
+                    if state is None:
+                        q, w, height, n = self.initialise(frame, obs, small, None)
+                        init_evals += n
+                        state = self.filter.init(q, w)
+                        status, evals = "init", 0
+                    else:
+                        state = FilterState(state.particles + np.r_[shift, np.zeros(state.particles.shape[1] - 3)],
+                                            state.weights)
+                        state, info = self.filter.step(self.frame_key(frame), state,
+                                                       self.measure(obs, self.base_shape.scaled_to(height)))
+                        evals = info.evaluations
+                    best = int(np.nanargmax(state.weights))
+                    w_best = float(state.weights[best])
+                    ref = float(np.median(history)) if history else w_best
+                    conf = w_best / ref if ref > 0 else 0.0
+                    low_streak = low_streak + 1 if conf < self.settings.confidence_drop else 0
+                    if status == "tracked" and low_streak >= self.settings.confidence_patience:
+                        q, w, h_new, n = self.initialise(frame, obs, small, height)
+                        init_evals += n
+                        reinits.append(int(frame))
+                        if np.nanmax(w) > w_best:
+                            state, height = self.filter.init(q, w), h_new
+                            best = int(np.nanargmax(state.weights))
+                            w_best = float(state.weights[best])
+                            status = "reinit"
+                        else:
+                            status = "reinit-rejected"
+                        history, low_streak = [], 0
+                        conf = 1.0
+                    history = (history + [w_best])[-10:]
+                    q_best = state.particles[best]
+                    shape = self.base_shape.scaled_to(height)
+                    pts = forward_kinematics(q_best, shape.values, self.U).points
+                    anchor_height = float(self.U[:, 2] @ pts[0])  # sacrum height (single camera)
+                    joints_csv.write(frame, time_s, pts.ravel())
+                    poses_csv.write(frame, time_s, q_best)
+                    rec.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
+                               evaluations=int(evals), origin_shift_m=round(float(np.linalg.norm(shift)), 4))
+                rows += 1
+                rec["seconds"] = round(time.perf_counter() - t0, 4)
+                per_frame.append(rec)
+                bar.set_postfix(w=rec.get("weight"), conf=rec.get("confidence"))
+                done = idx + 1
+                if done % self.settings.checkpoint_every == 0 or done == len(self.frames):
+                    checkpoint.save(out_dir, checkpoint.Checkpoint(
+                        done, rows, None if state is None else state.particles,
+                        None if state is None else state.weights, height, history, low_streak,
+                        per_frame, reinits, init_evals, key,
+                        None if prev_anchor is None else prev_anchor.tolist(), anchor_height))
+                    write_json_atomic(out_dir / "run.json", self.run_doc(per_frame, reinits, init_evals,
+                                                                        height, time.perf_counter() - t_start))
+                if overlay and rec["status"] != "missing":
+                    from .overlay import save_frame_overlay
+
+                    save_frame_overlay(out_dir / "overlay", frame, small, self.cameras,
+                                       state.particles[best], self.base_shape.scaled_to(height), self.U,
+                                       rec["weight"])
+        finally:
+            bar.close()
+            joints_csv.close()
+            poses_csv.close()
+        doc = self.run_doc(per_frame, reinits, init_evals, height, time.perf_counter() - t_start)
+        write_json_atomic(out_dir / "run.json", doc)
+        from .outputs import read_joints_csv
+
+        table = read_joints_csv(out_dir / "joints.csv")
+        poses = np.genfromtxt(out_dir / "poses.csv", delimiter=",", skip_header=1, ndmin=2)[:, 2:]
+        return RunResult(out_dir, self.frames, poses, table.points, doc)
+
+    def run_doc(self, per_frame, reinits, init_evals, height, seconds) -> dict:
+        s = self.settings
+        tracked = [r for r in per_frame if r["status"] != "missing"]
+        shape = self.base_shape.scaled_to(height) if height else self.base_shape
+        return {
+            "ipf_jax_version": __version__, "jax_version": jax.__version__,
+            "device_kind": jax.devices()[0].device_kind,
+            "dataset": str(self.dataset.path), "layout": self.dataset.layout,
+            "cameras": [c.name for c in self.dataset.cameras],
+            "filter": self.filter.name, "filter_params": self.filter.params,
+            "settings": {"resolution": s.resolution, "scoring_sizes": [[c.width, c.height] for c in self.cameras],
+                         "limits": s.limits, "seed": s.seed, "kernel": s.kernel, "chunk": s.chunk,
+                         "budget": s.budget, "height_m_given": s.height_m,
+                         "confidence_drop": s.confidence_drop,
+                         "confidence_patience": s.confidence_patience, "init": s.init._asdict()},
+            "limits": limits_to_json(self.limits),
+            "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
+            "height_m": height, "shape": shape.to_json(),
+            "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
+                       "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
+            "evaluations_per_frame": self.filter.evaluations_per_frame,
+            "init_evaluations": init_evals,
+            "reinitialisations": reinits,
+            "seconds": {"total": round(seconds, 3),
+                        "per_tracked_frame_mean": round(float(np.mean(
+                            [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},
+            "per_frame": per_frame,
+        }
+
+
+def track(dataset: Dataset, out_dir: str | Path, settings: TrackSettings = TrackSettings(), *,
+          frames: list[int] | None = None, resume: bool = False, progress: bool = True,
+          overlay: bool = False) -> RunResult:
+    """Track ``dataset`` into ``out_dir`` (joints.csv, poses.csv, run.json). See module doc."""
+    return Tracker(dataset, settings, frames).run(Path(out_dir), resume=resume, progress=progress,
+                                                  overlay=overlay)
