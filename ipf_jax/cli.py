@@ -51,9 +51,33 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--init-pose", help="initial pose: poses.csv row file, or bodytrack InitialPose.txt")
 
 
+#: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets
+#: ``func=run`` (``run(args) -> int`` handles IPFError itself or lets :func:`main` do it).
+COMMAND_MODULES = (
+    "ipf_jax.gait.cli",  # gait
+    "ipf_jax.export.cli",  # export
+    "ipf_jax.compare",  # compare
+    "ipf_jax.evaluation.cli",  # eval
+    "ipf_jax.sweep.cli",  # sweep, batch
+    "ipf_jax.bench",  # bench
+    "ipf_jax.render",  # render
+)
+
+
+def _add_module_commands(sub) -> None:
+    import importlib
+
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as e:
+            if e.name and name.startswith(e.name):  # command not installed in this build
+                continue
+            raise
+        module.add_parser(sub)
+
+
 def _parser() -> argparse.ArgumentParser:
-    from .export import cli as export_cli
-    from .gait import cli as gait_cli
 
     ap = argparse.ArgumentParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
                                  "analysis by Interval Particle Filtering (JAX).")
@@ -90,20 +114,19 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--up")
     p.set_defaults(func="score")
 
-    gait_cli.add_parser(sub)
-    export_cli.add_parser(sub)
+    _add_module_commands(sub)
     return ap
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = _parser()
     args = ap.parse_args(argv)
-    if not isinstance(args.func, str):  # sub-packages with their own runner (gait, export)
-        return args.func(args)
     from . import commands, jax_setup
 
     jax_setup.configure()
     try:
+        if not isinstance(args.func, str):  # commands living in their own modules
+            return args.func(args)
         return getattr(commands, args.func)(args)
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
