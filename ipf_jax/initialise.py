@@ -48,6 +48,8 @@ PART_GROUPS = (_group("root", "trunk"), _group("left_hip", "left_knee", "left_an
 #: First-round noise std per DOF (m, rad).
 REFINE_STD = np.concatenate([[0.08, 0.08, 0.04], np.deg2rad([25.0, 8.0, 8.0]),
                              np.full(NUM_DOF - 6, np.deg2rad(15.0))])
+# rotations about long axes are weakly observable: search them gently (see filters.base)
+REFINE_STD[[i for i, n in enumerate(DOF_NAMES) if n.endswith(("_rotation", "ankle_inversion"))]] = np.deg2rad(5.0)
 
 
 class InitSettings(NamedTuple):

@@ -94,8 +94,11 @@ def default_noise_rates() -> np.ndarray:
     for name in DOF_NAMES:
         if name in rates:
             continue
-        if name.startswith(("trunk", "head")) or name.endswith(
-                ("hip_abduction", "hip_rotation", "ankle_inversion")):
+        if name.endswith(("hip_rotation", "trunk_rotation", "ankle_inversion")):
+            # nearly unobservable in silhouettes (a pelvis turn can hide behind turned hips):
+            # slow noise keeps such compensations from building up
+            rates[name] = deg(15)
+        elif name.startswith(("trunk", "head")) or name.endswith("hip_abduction"):
             rates[name] = deg(40)
         elif name.endswith("shoulder_flexion") or name.endswith(("shoulder_abduction", "shoulder_rotation")):
             rates[name] = deg(60)
