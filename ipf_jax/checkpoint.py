@@ -25,7 +25,7 @@ class Checkpoint(NamedTuple):
     rows: int  # rows already in joints.csv / poses.csv
     particles: np.ndarray | None
     weights: np.ndarray | None
-    height_m: float | None
+    shape: dict | None  # the subject's BodyShape as JSON
     history: list[float]
     low_streak: int
     per_frame: list[dict]
@@ -38,7 +38,7 @@ class Checkpoint(NamedTuple):
 
 def save(out_dir: Path, ck: Checkpoint) -> None:
     out_dir = Path(out_dir)
-    meta = {"next_index": ck.next_index, "rows": ck.rows, "height_m": ck.height_m,
+    meta = {"next_index": ck.next_index, "rows": ck.rows, "shape": ck.shape,
             "history": ck.history, "low_streak": ck.low_streak, "per_frame": ck.per_frame,
             "reinits": ck.reinits, "init_evaluations": ck.init_evaluations,
             "settings_key": ck.settings_key, "anchor": ck.anchor, "anchor_height": ck.anchor_height}
@@ -65,7 +65,7 @@ def load(out_dir: Path) -> Checkpoint:
             weights = z["weights"] if "weights" in z else None
     except (OSError, ValueError, KeyError) as e:
         raise IPFError(f"corrupt checkpoint ({e})", path) from None
-    return Checkpoint(meta["next_index"], meta["rows"], particles, weights, meta["height_m"],
+    return Checkpoint(meta["next_index"], meta["rows"], particles, weights, meta["shape"],
                       meta["history"], meta["low_streak"], meta["per_frame"], meta["reinits"],
                       meta["init_evaluations"], meta["settings_key"], meta["anchor"],
                       meta["anchor_height"])

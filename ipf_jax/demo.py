@@ -14,7 +14,7 @@ import numpy as np
 
 from . import synthetic as syn
 from .body.model import LIMB_JOINTS, POINT_NAMES
-from .body.shape import default_shape
+from .body.shape import default_shape, shape_from_json
 from .calibration import write_json
 from .dataset import open_dataset
 from .outputs import JOINT_COLUMNS, check_writable
@@ -84,7 +84,7 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
 
     mid = ds.frames[len(ds.frames) // 2]
     path = save_frame_overlay(out, mid, ds.masks(mid), cams, res.poses[len(ds.frames) // 2],
-                              shape.scaled_to(run["height_m"]), up_rotation("+z"))
+                              shape_from_json(run["shape"]), up_rotation("+z"))
     print(f"wrote {out / 'run'} (joints.csv, poses.csv, run.json), {out / 'demo_summary.json'}, {path}")
     print(f"rerun the tracker yourself: ipf-jax track {data} --out {out / 'run2'}")
     return 0

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
+import itertools
+
 import jax
 import numpy as np
 
 from .body.limits import Limits
 from .body.model import DOF_INDEX, DOF_NAMES, NUM_DOF
-from .body.shape import BodyShape
+from .body.shape import LENGTH_GROUPS, BodyShape
 from .camera import Camera
 from .errors import IPFError
 from .filters.base import gaussian_noise
@@ -68,7 +70,7 @@ class InitSettings(NamedTuple):
 class InitResult(NamedTuple):
     particles: np.ndarray  # (N, D)
     weights: np.ndarray  # (N,)
-    height_m: float
+    shape: BodyShape  # height and proportions found (or given)
     evaluations: int
 
 
@@ -117,14 +119,21 @@ Measure = Callable[[np.ndarray, BodyShape], np.ndarray]
 
 def initialise(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera], U: np.ndarray,
                limits: Limits, base_shape: BodyShape, measure: Measure, *,
-               height_m: float | None = None, settings: InitSettings = InitSettings()) -> InitResult:
-    """Search the first frame. ``measure(particles, shape) -> weights`` scores on that frame."""
+               height_m: float | None = None, fixed_shape: BodyShape | None = None,
+               settings: InitSettings = InitSettings()) -> InitResult:
+    """Search one frame. ``measure(particles, shape) -> weights`` scores on that frame.
+
+    ``height_m`` fixes the height (proportions are still fitted); ``fixed_shape`` fixes the whole
+    shape (re-initialisation keeps the subject found at the start).
+    """
+    if fixed_shape is not None:
+        base_shape, height_m = fixed_shape, fixed_shape.height_m
     heights = (height_m,) if height_m is not None else settings.heights_m
     feet = floor_points(masks, cameras, U[:, 2], heights)
     evaluations = 0
     pool_q, pool_w, pool_h = [], [], []
     for h in heights:
-        shape = base_shape.scaled_to(h)
+        shape = base_shape if h == base_shape.height_m else base_shape.scaled_to(h)
         grid = grid_particles(feet[h], shape, U, limits, settings)
         w = measure(grid, shape)
         evaluations += len(grid)
@@ -139,7 +148,8 @@ def initialise(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera
         h = float(h_all[seed_idx])
         seed = (q_all[seed_idx][None], w_all[seed_idx][None])
         key = jax.random.fold_in(rng_key, int(seed_idx))
-        res = _refine(key, *seed, h, base_shape, measure, U, limits, settings, search_height=height_m is None)
+        res = _refine(key, *seed, h, base_shape, measure, U, limits, settings,
+                      search_height=height_m is None, search_proportions=fixed_shape is None)
         evaluations += res.evaluations
         results.append(res)
     best = max(results, key=lambda r: np.nanmax(r.weights))
@@ -166,10 +176,12 @@ def grid_modes(q: np.ndarray, w: np.ndarray, count: int, min_yaw_deg: float = 45
     return chosen
 
 
-def _refine(rng_key, particles, weights, h, base_shape, measure, U, limits, settings, *, search_height):
-    """Partitioned random search, then compass search, from one seed; height refined once."""
+def _refine(rng_key, particles, weights, h, base_shape, measure, U, limits, settings, *, search_height,
+            search_proportions):
+    """Partitioned random search, then compass search, from one seed; height refined once,
+    then the subject's proportions (legs, arms, trunk) and a last compass search."""
     evaluations = 0
-    shape = base_shape.scaled_to(h)
+    shape = base_shape if h == base_shape.height_m else base_shape.scaled_to(h)
     # local search, one body part at a time, with shrinking noise (the frame is static, so this
     # is a search, not a filter): perturbing 6 DOF at once finds improvements that 31 at once miss
     reps = max(1, settings.refine_particles // settings.keep)
@@ -189,20 +201,91 @@ def _refine(rng_key, particles, weights, h, base_shape, measure, U, limits, sett
             h, particles, weights, n = _refine_height(particles, weights, base_shape, h, measure, U)
             evaluations += n
             shape = base_shape.scaled_to(h)
+    particles, weights, n = limb_grids(particles, weights, measure, shape, limits, keep=settings.pattern_keep)
+    evaluations += n
     particles, weights, n = pattern_search(particles, weights, measure, shape, limits,
                                            keep=settings.pattern_keep, sweeps=settings.pattern_sweeps)
     evaluations += n
-    return InitResult(particles, weights, h, evaluations)
+    if search_proportions:
+        shape, particles, weights, n = fit_proportions(particles, weights, shape, measure, U, limits)
+        evaluations += n
+        particles, weights, n = pattern_search(particles, weights, measure, shape, limits,
+                                               keep=settings.pattern_keep, sweeps=3, first_step=0.125)
+        evaluations += n
+    return InitResult(particles, weights, shape, evaluations)
 
 
-def pattern_search(particles, weights, measure, shape, limits, *, keep: int, sweeps: int):
+def fit_proportions(particles, weights, shape: BodyShape, measure, U, limits, *, keep: int = 8,
+                    factors=(0.92, 0.96, 1.04, 1.08), passes: int = 2):
+    """Coordinate search over segment-group length factors (legs, arms, trunk) on the best
+    configurations, feet kept on the floor. People's proportions differ from the default adult by
+    several per cent; a wrong leg length alone moves the ankles by centimetres."""
+    idx = top_distinct(particles, weights, keep)
+    top, best_w = particles[idx], float(np.nanmax(weights))
+    current = {g: 1.0 for g in LENGTH_GROUPS}
+    base = shape
+    best = (shape, particles, weights)
+    n = 0
+    for _ in range(passes):
+        for group in LENGTH_GROUPS:
+            for k in factors:
+                trial = dict(current, **{group: current[group] * k})
+                cand_shape = base.with_factors(**trial)
+                q = np.array([place_on_floor(t, cand_shape.values, U) for t in top])
+                w = measure(limits.clip(q), cand_shape)
+                n += len(q)
+                if np.nanmax(w) > best_w:
+                    best_w = float(np.nanmax(w))
+                    current = trial
+                    best = (cand_shape, q, w)
+                    top = q[np.argsort(-w, kind="stable")]
+    return (*best, n)
+
+
+def _limb_grid(*axes: tuple[str, tuple[float, ...]]) -> tuple[np.ndarray, np.ndarray]:
+    idx = np.array([DOF_INDEX[name] for name, _ in axes])
+    values = np.deg2rad(np.array(list(itertools.product(*[v for _, v in axes]))))
+    return idx, values
+
+
+#: Per-limb exhaustive grids (degrees) searched with the rest of the body held: the thin limbs
+#: have narrow likelihood peaks that random moves of the whole body rarely hit.
+LIMB_GRIDS = tuple(
+    _limb_grid((f"{side}_shoulder_flexion", (-45, -30, -15, 0, 15, 30, 45)),
+               (f"{side}_shoulder_abduction", (0, 12, 25)),
+               (f"{side}_elbow_flexion", (0, 25, 50, 75, 100)))
+    for side in ("left", "right")) + tuple(
+    _limb_grid((f"{side}_hip_flexion", (-25, -15, -5, 5, 15, 25, 35)),
+               (f"{side}_hip_abduction", (-8, 0, 8)),
+               (f"{side}_knee_flexion", (0, 15, 30, 50, 70)))
+    for side in ("left", "right"))
+
+
+def limb_grids(particles, weights, measure, shape, limits, *, keep: int):
+    """Each limb's grid (:data:`LIMB_GRIDS`) on the best configurations, the rest held."""
+    n = 0
+    for idx, values in LIMB_GRIDS:
+        top = top_distinct(particles, weights, keep)
+        base, base_w = particles[top], weights[top]
+        cand = np.repeat(base, len(values), axis=0)
+        cand[:, idx] = np.tile(values, (len(base), 1))
+        cand = limits.clip(cand)
+        w = measure(cand, shape)
+        n += len(cand)
+        particles = np.concatenate([base, cand])
+        weights = np.concatenate([base_w, w])
+    return particles, weights, n
+
+
+def pattern_search(particles, weights, measure, shape, limits, *, keep: int, sweeps: int,
+                   first_step: float = 0.5):
     """Compass search from the best distinct configurations: each sweep tries +-step on every DOF,
     then the combination of all improving steps (Hooke-Jeeves' exploratory move); steps halve.
 
     Deterministic, and good at the last centimetres and degrees where random moves in 31
     dimensions rarely improve all at once. Returns the pooled particles, weights, evaluations.
     """
-    step = REFINE_STD * 0.5
+    step = REFINE_STD * first_step
     n_dof = particles.shape[1]
     evaluations = 0
     for _ in range(sweeps):

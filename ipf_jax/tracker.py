@@ -20,7 +20,7 @@ from tqdm import tqdm
 
 from . import __version__, checkpoint
 from .body.limits import Limits, limits_to_json, load_limits
-from .body.shape import BodyShape, default_shape, load_shape
+from .body.shape import BodyShape, default_shape, load_shape, shape_from_json
 from .camera import Camera
 from .dataset import Dataset
 from .errors import IPFError, require
@@ -125,19 +125,20 @@ class Tracker:
     def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
         return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
 
-    def initialise(self, frame: int, obs: Observation, small: list[np.ndarray], height: float | None):
+    def initialise(self, frame: int, obs: Observation, small: list[np.ndarray],
+                   shape: BodyShape | None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
+        """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation."""
         s = self.settings
         active = [i for i in range(len(small)) if obs.active[i]]
-        if s.init_pose is not None and height is None:
+        if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
             w = self.measure(obs, shape)(q)
-            return q, w, shape.height_m, 1
+            return q, w, shape, 1
         res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
                          [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
-                         self.measure(obs), height_m=height if height is not None else s.height_m,
-                         settings=s.init)
-        return res.particles, res.weights, res.height_m, res.evaluations
+                         self.measure(obs), height_m=s.height_m, fixed_shape=shape, settings=s.init)
+        return res.particles, res.weights, res.shape, res.evaluations
 
     # -- the loop ----------------------------------------------------------------------------
     def run(self, out_dir: Path, *, resume: bool = False, progress: bool = True,
@@ -154,7 +155,7 @@ class Tracker:
         joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, ck.rows if resume else None)
         poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, ck.rows if resume else None)
         state = None if ck.particles is None else FilterState(ck.particles, ck.weights)
-        height = ck.height_m
+        shape = None if ck.shape is None else shape_from_json(ck.shape)
         history, low_streak = list(ck.history), ck.low_streak
         per_frame, reinits = list(ck.per_frame), list(ck.reinits)
         init_evals = ck.init_evaluations
@@ -185,7 +186,7 @@ class Tracker:
                     if here is not None:
                         prev_anchor = here
                     if state is None:
-                        q, w, height, n = self.initialise(frame, obs, small, None)
+                        q, w, shape, n = self.initialise(frame, obs, small, None)
                         init_evals += n
                         state = self.filter.init(q, w)
                         status, evals = "init", 0
@@ -193,7 +194,7 @@ class Tracker:
                         state = FilterState(state.particles + np.r_[shift, np.zeros(state.particles.shape[1] - 3)],
                                             state.weights)
                         state, info = self.filter.step(self.frame_key(frame), state,
-                                                       self.measure(obs, self.base_shape.scaled_to(height)))
+                                                       self.measure(obs, shape))
                         evals = info.evaluations
                     best = int(np.nanargmax(state.weights))
                     w_best = float(state.weights[best])
@@ -201,11 +202,11 @@ class Tracker:
                     conf = w_best / ref if ref > 0 else 0.0
                     low_streak = low_streak + 1 if conf < self.settings.confidence_drop else 0
                     if status == "tracked" and low_streak >= self.settings.confidence_patience:
-                        q, w, h_new, n = self.initialise(frame, obs, small, height)
+                        q, w, _, n = self.initialise(frame, obs, small, shape)
                         init_evals += n
                         reinits.append(int(frame))
                         if np.nanmax(w) > w_best:
-                            state, height = self.filter.init(q, w), h_new
+                            state = self.filter.init(q, w)
                             best = int(np.nanargmax(state.weights))
                             w_best = float(state.weights[best])
                             status = "reinit"
@@ -215,7 +216,6 @@ class Tracker:
                         conf = 1.0
                     history = (history + [w_best])[-10:]
                     q_best = state.particles[best]
-                    shape = self.base_shape.scaled_to(height)
                     pts = forward_kinematics(q_best, shape.values, self.U).points
                     anchor_height = float(self.U[:, 2] @ pts[0])  # sacrum height (single camera)
                     joints_csv.write(frame, time_s, pts.ravel())
@@ -230,22 +230,23 @@ class Tracker:
                 if done % self.settings.checkpoint_every == 0 or done == len(self.frames):
                     checkpoint.save(out_dir, checkpoint.Checkpoint(
                         done, rows, None if state is None else state.particles,
-                        None if state is None else state.weights, height, history, low_streak,
+                        None if state is None else state.weights,
+                        None if shape is None else shape.to_json(), history, low_streak,
                         per_frame, reinits, init_evals, key,
                         None if prev_anchor is None else prev_anchor.tolist(), anchor_height))
                     write_json_atomic(out_dir / "run.json", self.run_doc(per_frame, reinits, init_evals,
-                                                                        height, time.perf_counter() - t_start))
+                                                                        shape, time.perf_counter() - t_start))
                 if overlay and rec["status"] != "missing":
                     from .overlay import save_frame_overlay
 
                     save_frame_overlay(out_dir / "overlay", frame, small, self.cameras,
-                                       state.particles[best], self.base_shape.scaled_to(height), self.U,
+                                       state.particles[best], shape, self.U,
                                        rec["weight"])
         finally:
             bar.close()
             joints_csv.close()
             poses_csv.close()
-        doc = self.run_doc(per_frame, reinits, init_evals, height, time.perf_counter() - t_start)
+        doc = self.run_doc(per_frame, reinits, init_evals, shape, time.perf_counter() - t_start)
         write_json_atomic(out_dir / "run.json", doc)
         from .outputs import read_joints_csv
 
@@ -253,10 +254,10 @@ class Tracker:
         poses = np.genfromtxt(out_dir / "poses.csv", delimiter=",", skip_header=1, ndmin=2)[:, 2:]
         return RunResult(out_dir, self.frames, poses, table.points, doc)
 
-    def run_doc(self, per_frame, reinits, init_evals, height, seconds) -> dict:
+    def run_doc(self, per_frame, reinits, init_evals, shape, seconds) -> dict:
         s = self.settings
         tracked = [r for r in per_frame if r["status"] != "missing"]
-        shape = self.base_shape.scaled_to(height) if height else self.base_shape
+        shape = shape or self.base_shape
         return {
             "ipf_jax_version": __version__, "jax_version": jax.__version__,
             "device_kind": jax.devices()[0].device_kind,
@@ -270,7 +271,7 @@ class Tracker:
                          "confidence_patience": s.confidence_patience, "init": s.init._asdict()},
             "limits": limits_to_json(self.limits),
             "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
-            "height_m": height, "shape": shape.to_json(),
+            "height_m": shape.height_m, "shape": shape.to_json(),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
                        "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
             "evaluations_per_frame": self.filter.evaluations_per_frame,

@@ -17,6 +17,9 @@ from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
+#: Bone lengths that vary together between people (used to fit a subject's proportions).
+LENGTH_GROUPS = {"legs": ("thigh", "shank"), "arms": ("upper_arm", "forearm"), "trunk": ("trunk",)}
+
 
 class BodyShape(NamedTuple):
     """Subject shape.
@@ -40,6 +43,20 @@ class BodyShape(NamedTuple):
         k = height_m / self.height_m
         return BodyShape(np.asarray(self.values, np.float64) * k, float(height_m))
 
+    def with_factors(self, **factors: float) -> "BodyShape":
+        """The same subject with some segment groups lengthened (``legs=1.04``, ``arms``, ``trunk``).
+
+        Only bone lengths change; radii and the standing height label stay (the height is the
+        label of the proportions the factors start from).
+        """
+        values = np.array(self.values, np.float64)
+        for group, k in factors.items():
+            require(group in LENGTH_GROUPS, f"unknown segment group {group!r}")
+            require(0.5 < k < 1.5, f"segment factor {k} is outside 0.5..1.5")
+            for name in LENGTH_GROUPS[group]:
+                values[SHAPE_INDEX[name]] *= k
+        return BodyShape(values, self.height_m)
+
     def to_json(self) -> dict:
         return {"height_m": self.height_m,
                 "params": {n: float(v) for n, v in zip(SHAPE_PARAM_NAMES, self.values)}}
@@ -54,6 +71,11 @@ def load_shape(path: str | Path) -> BodyShape:
         raise IPFError("shape file not found", path) from None
     except (OSError, ValueError) as e:
         raise IPFError(f"not a readable JSON shape file ({e})", path) from None
+    return shape_from_json(doc, path)
+
+
+def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
+    """A shape from its JSON document (``run.json``'s ``shape`` too); IPFError names ``path``."""
     require(isinstance(doc, dict) and isinstance(doc.get("params"), dict),
             "shape file needs a 'params' object", path)
     params = doc["params"]

@@ -82,8 +82,9 @@ def default_noise_rates() -> np.ndarray:
 
     Set from how much each DOF changes between frames in normal walking (joint centres of a real
     marker walk, fitted with our model: trunk and arms 1-3 deg per 50 ms, hips 5, knees 8-9 rms)
-    with head-room for faster movements. The root's translation is mostly explained by the body
-    origin positioning (:mod:`ipf_jax.origin`), so its noise covers only the residual.
+    with head-room for faster movements and for recovering a limb the estimate has lost. The
+    root's translation is mostly explained by the body origin positioning (:mod:`ipf_jax.origin`),
+    so its noise covers only the residual.
     Multiplied by 1/fps per frame.
     """
     from ..body.model import DOF_NAMES
@@ -100,13 +101,9 @@ def default_noise_rates() -> np.ndarray:
             rates[name] = deg(15)
         elif name.startswith(("trunk", "head")) or name.endswith("hip_abduction"):
             rates[name] = deg(40)
-        elif name.endswith("shoulder_flexion") or name.endswith(("shoulder_abduction", "shoulder_rotation")):
-            rates[name] = deg(60)
-        elif name.endswith("elbow_flexion"):
-            rates[name] = deg(80)
         elif name.endswith("knee_flexion"):
             rates[name] = deg(200)
-        else:  # hip flexion, ankle dorsiflexion
+        else:  # hip flexion, ankle dorsiflexion, shoulders, elbows
             rates[name] = deg(100)
     return np.array([rates[n] for n in DOF_NAMES])
 
