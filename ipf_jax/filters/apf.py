@@ -1,9 +1,20 @@
-"""Annealed particle filter (Deutscher & Reid 2005): L layers of weigh -> anneal -> resample.
+"""Annealed particle filter (Deutscher & Reid 2005): L layers of diffuse -> weigh -> anneal.
 
-Per frame and layer: diffuse (noise shrinking layer by layer), weigh with the likelihood, raise
-the weights to the power beta chosen so that a target fraction of the particles survives (the
-effective sample fraction (sum w)^2 / (N sum w^2), default 0.5, as bodytrack), resample. The
-estimate is the heaviest particle of the last layer (the weighted mean is recorded too).
+Per frame, starting from the previous frame's last layer, for layer m = 0 .. L-1:
+
+1. resample by the annealed weights (systematic) and diffuse every DOF with Gaussian noise whose
+   std is ``noise_scale x rates / fps`` times ``noise_decay ** m``;
+2. weigh the N particles with the likelihood;
+3. anneal: weights ``w ** beta`` with beta chosen by bisection so that the effective sample
+   fraction ``(sum w)^2 / (N sum w^2)`` equals the target survival rate alpha (default 0.5).
+
+Deutscher & Reid shrink the diffusion covariance by the survival rate from one layer to the next,
+so the default ``noise_decay`` is ``sqrt(alpha)`` on the std (bodytrack: sqrt(0.5) per layer too).
+The state carries the last layer's raw likelihoods; the next frame re-anneals them (the same beta,
+as the data are the same), so the tracker's best weight and confidence stay in likelihood units.
+
+Estimates after the last layer: the heaviest particle (``FilterInfo.best``, what the tracker writes)
+and the annealed-weight mean (``FilterInfo.mean``: Deutscher & Reid's and bodytrack's estimate).
 """
 from __future__ import annotations
 
@@ -14,75 +25,114 @@ import numpy as np
 
 from ..body.limits import Limits
 from ..errors import require
-from .base import Filter, FilterState, default_noise_rates, rate_std, resample_diffuse, summarise
+from .base import (Filter, FilterState, default_noise_rates, init_state, rate_std,
+                   resample_diffuse, summarise)
+
+_MAX_BETA = 1e12  # beyond this every weight but the maxima underflows anyway
 
 
 class APFSettings(NamedTuple):
-    particles: int = 4000
+    particles: int = 4000  # bodytrack's setting
     layers: int = 5
-    survival: float = 0.5  # target effective sample fraction per layer
-    noise_scale: float = 1.0
-    noise_decay: float = 0.5 ** 0.5  # noise std multiplier from one layer to the next
+    survival: float = 0.5  # target effective sample fraction alpha per layer
+    noise_scale: float = 1.0  # multiplies the default per-DOF noise rates
+    noise_decay: float | None = None  # std multiplier per layer; None: sqrt(survival)
 
 
-def effective_fraction(w: np.ndarray) -> float:
-    """(sum w)^2 / (N sum w^2) of non-negative weights (1 = all equal, 1/N = one survivor)."""
-    s2 = float(np.sum(w * w))
-    return float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0
-
-
-def anneal_beta(likelihood: np.ndarray, target: float, *, iters: int = 60) -> float:
-    """beta >= 0 with effective_fraction(likelihood ** beta) == target (bisection in log space)."""
-    lw = np.log(np.where(likelihood > 0, likelihood, np.nan))
-    ok = np.isfinite(lw)
-    if ok.sum() <= 1:
-        return 1.0
-    lw = lw[ok] - np.max(lw[ok])
-
-    def esf(beta):
-        return effective_fraction(np.exp(beta * lw)) * ok.sum() / len(likelihood)
-
-    if esf(0.0) <= target:
-        return 0.0
-    lo, hi = 0.0, 1.0
-    while esf(hi) > target and hi < 1e6:
-        lo, hi = hi, hi * 2
-    for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if esf(mid) > target else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
-def annealed_weights(likelihood: np.ndarray, target: float) -> np.ndarray:
-    beta = anneal_beta(likelihood, target)
-    lw = np.log(np.where(likelihood > 0, likelihood, np.nan))
-    w = np.exp(beta * (lw - np.nanmax(lw)))
-    return np.where(np.isfinite(w), w, 0.0)
-
-
-def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
+def validate(settings: APFSettings) -> None:
     require(settings.particles >= 1, f"APF needs at least one particle (got {settings.particles})")
     require(settings.layers >= 1, f"APF needs at least one layer (got {settings.layers})")
     require(0 < settings.survival < 1, f"survival fraction must be in (0, 1) (got {settings.survival})")
     require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
-    std = rate_std(default_noise_rates(), fps) * settings.noise_scale
+    if settings.noise_decay is not None:
+        require(0 < settings.noise_decay <= 1,
+                f"noise decay per layer must be in (0, 1] (got {settings.noise_decay})")
+
+
+def noise_decay(settings: APFSettings) -> float:
+    """Noise std multiplier from one layer to the next (default sqrt(survival))."""
+    return float(np.sqrt(settings.survival) if settings.noise_decay is None else settings.noise_decay)
+
+
+def layer_scales(settings: APFSettings) -> np.ndarray:
+    """(L,) noise std multiplier of each layer: 1, d, d^2, ... with d = :func:`noise_decay`."""
+    return noise_decay(settings) ** np.arange(settings.layers)
+
+
+def effective_fraction(w: np.ndarray) -> float:
+    """(sum w)^2 / (N sum w^2) of (N,) non-negative weights: 1 all equal, 1/N one survivor."""
+    s2 = float(np.sum(w * w))
+    return float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0
+
+
+def _log_likelihood(likelihood: np.ndarray) -> np.ndarray:
+    """(N,) log of the likelihoods; zero, negative or NaN ones are -inf (dead particles)."""
+    lk = np.asarray(likelihood, float)
+    ok = np.isfinite(lk) & (lk > 0)
+    return np.where(ok, np.log(np.where(ok, lk, 1.0)), -np.inf)
+
+
+def anneal_beta(likelihood: np.ndarray, target: float, *, iters: int = 64) -> float:
+    """beta >= 0 with ``effective_fraction(likelihood ** beta) == target`` (dead particles count).
+
+    likelihood : (N,) non-negative; zero/NaN entries are dead at every beta.
+    The fraction falls monotonically from its value at beta = 0 (the live fraction) towards
+    (number of maxima) / N. Returns 0 when it is already at or below ``target`` at beta = 0, or
+    when all live likelihoods are equal (every beta gives the same weights); returns a very large
+    beta when ties at the maximum keep it above ``target`` for every beta.
+    """
+    lw = _log_likelihood(likelihood)
+    live = np.isfinite(lw)
+    if not live.any():
+        return 0.0
+    lw = lw[live] - lw[live].max()  # (N_live,) <= 0, so exp never overflows
+    live_fraction = live.mean()
+
+    def fraction(beta: float) -> float:
+        return live_fraction * effective_fraction(np.exp(beta * lw))
+
+    if fraction(0.0) <= target or lw.min() == 0.0:
+        return 0.0
+    hi = 1.0
+    while fraction(hi) > target:
+        if hi >= _MAX_BETA:
+            return hi
+        hi *= 2.0
+    lo = hi / 2.0 if hi > 1.0 else 0.0
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if fraction(mid) > target else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def annealed_weights(likelihood: np.ndarray, target: float) -> tuple[np.ndarray, float]:
+    """(N,) weights ``(likelihood / max) ** beta`` (0 for dead particles) and that beta."""
+    beta = anneal_beta(likelihood, target)
+    lw = _log_likelihood(likelihood)
+    if not np.isfinite(lw).any():
+        return np.ones(len(lw)), beta  # nothing alive: resample uniformly
+    return np.exp(beta * (lw - lw[np.isfinite(lw)].max())), beta
+
+
+def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
+    """The APF kernel for fixed settings: exactly ``particles x layers`` evaluations per frame."""
+    validate(settings)
+    std = rate_std(default_noise_rates(), fps) * settings.noise_scale  # (D,)
+    scales = layer_scales(settings)  # (L,)
     n, layers = settings.particles, settings.layers
 
-    def init(particles, weights):
-        return FilterState(np.asarray(particles, float), np.asarray(weights, float))
-
     def step(rng_key: jax.Array, state: FilterState, measure):
-        x, pi = state.particles, annealed_weights(state.weights, settings.survival)
-        for layer in range(layers):
-            scale = settings.noise_decay ** layer
-            x = resample_diffuse(jax.random.fold_in(rng_key, layer), x, pi, std * scale, limits, n)
+        x = state.particles
+        pi, _ = annealed_weights(state.weights, settings.survival)
+        for layer, scale in enumerate(scales):
+            key = jax.random.fold_in(rng_key, layer)
+            x = resample_diffuse(key, x, pi, std * scale, limits, n)  # (N, D)
             likelihood = np.asarray(measure(x), float)
-            pi = annealed_weights(likelihood, settings.survival)
+            pi, _ = annealed_weights(likelihood, settings.survival)
         info = summarise(x, likelihood, n * layers)
-        info = info._replace(mean=(pi[:, None] * x).sum(0) / max(pi.sum(), 1e-300))
-        # the next frame resamples by the annealed weights; report the raw likelihoods as weights
-        return FilterState(x, likelihood), info
+        return FilterState(x, likelihood), info._replace(mean=summarise(x, pi, 0).mean)
 
-    return Filter("apf", init, step, n * layers,
-                  {"particles": n, "layers": layers, "survival": settings.survival,
-                   "noise_scale": settings.noise_scale, "noise_decay": settings.noise_decay})
+    params = {"particles": n, "layers": layers, "survival": settings.survival,
+              "noise_scale": settings.noise_scale,
+              "noise_decay": noise_decay(settings)}
+    return Filter("apf", init_state, step, n * layers, params)

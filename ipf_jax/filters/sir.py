@@ -1,7 +1,13 @@
-"""Condensation / SIR (Isard & Blake): resample by weight, diffuse every DOF, weigh.
+"""Condensation / SIR (Isard & Blake 1998): resample by weight, diffuse every DOF, weigh.
 
-The estimate is the heaviest particle (as IPF); the weighted mean is recorded too. The same noise
-rates as IPF's R sub-vector, scaled by 1/fps, diffuse all 31 DOF.
+Per frame: draw N particles from the previous weighted set by systematic resampling (the
+factored sampling step), move each with the dynamical model, here a random walk of independent
+Gaussian noise on all 31 DOF (:func:`~ipf_jax.filters.base.default_noise_rates` x 1/fps, the same
+rates IPF uses for its R sub-vector), clip to the limits, and weigh with the likelihood. The
+weights are the likelihood itself (Condensation has no tempering: that is what APF adds).
+
+Estimates: the heaviest particle (``FilterInfo.best``, what the tracker writes, as for IPF) and the
+weighted mean (``FilterInfo.mean``, Condensation's own estimate of the posterior mean).
 """
 from __future__ import annotations
 
@@ -12,26 +18,29 @@ import numpy as np
 
 from ..body.limits import Limits
 from ..errors import require
-from .base import Filter, FilterState, default_noise_rates, rate_std, resample_diffuse, summarise
+from .base import (Filter, FilterState, default_noise_rates, init_state, rate_std,
+                   resample_diffuse, summarise)
 
 
 class SIRSettings(NamedTuple):
-    particles: int = 6561
-    noise_scale: float = 1.0
+    particles: int = 6561  # IPF's default cost (81 x 81 evaluations per frame)
+    noise_scale: float = 1.0  # multiplies the default per-DOF noise rates
+
+
+def validate(settings: SIRSettings) -> None:
+    require(settings.particles >= 1, f"SIR needs at least one particle (got {settings.particles})")
+    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
 
 
 def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:
-    require(settings.particles >= 1, f"SIR needs at least one particle (got {settings.particles})")
-    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
-    std = rate_std(default_noise_rates(), fps) * settings.noise_scale
+    """The SIR kernel for fixed settings: exactly ``particles`` evaluations per frame."""
+    validate(settings)
+    std = rate_std(default_noise_rates(), fps) * settings.noise_scale  # (D,)
     n = settings.particles
 
-    def init(particles, weights):
-        return FilterState(np.asarray(particles, float), np.asarray(weights, float))
-
     def step(rng_key: jax.Array, state: FilterState, measure):
-        new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n)
+        new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n)  # (N, D)
         weights = np.asarray(measure(new), float)
         return FilterState(new, weights), summarise(new, weights, n)
 
-    return Filter("sir", init, step, n, {"particles": n, "noise_scale": settings.noise_scale})
+    return Filter("sir", init_state, step, n, {"particles": n, "noise_scale": settings.noise_scale})
