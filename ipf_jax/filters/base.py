@@ -81,30 +81,31 @@ def default_noise_rates() -> np.ndarray:
     """(D,) per-second noise std of every DOF (metres/s, rad/s), shared by all filters.
 
     Set from how much each DOF changes between frames in normal walking (joint centres of a real
-    marker walk, fitted with our model: trunk and arms 1-3 deg per 50 ms, hips 5, knees 8-9 rms)
-    with head-room for faster movements and for recovering a limb the estimate has lost. The
-    root's translation is mostly explained by the body origin positioning (:mod:`ipf_jax.origin`),
-    so its noise covers only the residual.
+    marker walk, fitted with our model: trunk and arms 1-3 deg per 50 ms, hips 5, knees 8-9 rms):
+    about 1.5x those rates. Every child particle gets this noise, so it also bounds how precise
+    the heaviest particle can be; twice these rates tracked measurably worse. The root's
+    translation is mostly explained by the body origin positioning (:mod:`ipf_jax.origin`), so its
+    noise covers only the residual.
     Multiplied by 1/fps per frame.
     """
     from ..body.model import DOF_NAMES
 
     deg = np.deg2rad
-    rates = {"root_tx": 0.3, "root_ty": 0.3, "root_tz": 0.2, "root_yaw": deg(40),
-             "root_pitch": deg(30), "root_roll": deg(30)}
+    rates = {"root_tx": 0.15, "root_ty": 0.15, "root_tz": 0.1, "root_yaw": deg(20),
+             "root_pitch": deg(15), "root_roll": deg(15)}
     for name in DOF_NAMES:
         if name in rates:
             continue
         if name.endswith(("hip_rotation", "trunk_rotation", "ankle_inversion")):
             # nearly unobservable in silhouettes (a pelvis turn can hide behind turned hips):
             # slow noise keeps such compensations from building up
-            rates[name] = deg(15)
+            rates[name] = deg(8)
         elif name.startswith(("trunk", "head")) or name.endswith("hip_abduction"):
-            rates[name] = deg(40)
+            rates[name] = deg(20)
         elif name.endswith("knee_flexion"):
-            rates[name] = deg(200)
-        else:  # hip flexion, ankle dorsiflexion, shoulders, elbows
             rates[name] = deg(100)
+        else:  # hip flexion, ankle dorsiflexion, shoulders, elbows
+            rates[name] = deg(50)
     return np.array([rates[n] for n in DOF_NAMES])
 
 
