@@ -75,8 +75,12 @@ class Dataset:
         frame_sets = [s.frames for s in sources]
         for k, fr in enumerate(frame_sets[1:], start=2):
             if fr != frame_sets[0]:
+                only = sorted(set(frame_sets[0]) ^ set(fr))
+                src = sources[k - 1]
                 raise IPFError(f"camera {k} has {len(fr)} frames, camera 1 has {len(frame_sets[0])}: "
-                               "frame numbers must be the same for every camera", self.path)
+                               "frame numbers must be the same for every camera (in one camera only: "
+                               f"{', '.join(map(str, only[:5]))}{' ...' if len(only) > 5 else ''})",
+                               getattr(src, "folder", None) or getattr(src, "path", None) or self.path)
         self.frames = list(frame_sets[0])
 
     @property
@@ -95,7 +99,11 @@ class Dataset:
         return out
 
     def images(self, frame: int) -> list[np.ndarray] | None:
-        """Grey camera images for overlays, when the dataset has them."""
+        """Camera images for overlays (grey or BGR), when the dataset has them; else None."""
+        sources = getattr(self, "sources", None) or []  # MemoryDataset has none
+        if sources and all(callable(getattr(s, "image", None)) for s in sources):
+            out = [s.image(frame) for s in sources]  # dataset.json sources
+            return None if any(im is None for im in out) else out
         if not self.image_folders:
             return None
         from .silhouette import read_gray
@@ -127,6 +135,13 @@ def open_bodytrack(path: Path) -> Dataset:
     else:
         cal_files = sorted(calib.glob("Camera*.cal"), key=_natural_key)
         require(bool(cal_files), "no CALIB/CameraK.cal files", calib)
+        # .cal files hold no image size: it comes from the masks, so a camera whose masks have
+        # another size would silently get intrinsics made for the others' size
+        for f, m in zip(fg[1:], first[1:]):
+            require(m.shape == first[0].shape, f"masks are {m.shape[1]}x{m.shape[0]} but {fg[0].name}'s "
+                    f"are {first[0].shape[1]}x{first[0].shape[0]}: with .cal calibrations (no image "
+                    "size in them) every camera's masks must have the same size (CALIB/cameras.json gives "
+                    "each camera its own)", f)
         cams = []
         for f, m in zip(cal_files, first):
             cams.append(read_bodytrack_cal(f, width=m.shape[1], height=m.shape[0]))
@@ -167,9 +182,13 @@ def open_described(path: Path) -> Dataset:
     cams, sources = build_sources(path, doc)
     for cam in cams:
         _check_principal_point(cam, doc_path)
-    fps = doc.get("fps")
-    return Dataset(path, cams, sources, fps=float(fps) if fps else None, up_axis=doc.get("up_axis"),
-                   layout="ipf-jax")
+    fps = doc.get("fps") or next((s.fps for s in sources if getattr(s, "fps", None)), None)
+    require(fps is None or (isinstance(fps, (int, float)) and fps > 0),
+            f"'fps' must be a positive number, got {fps!r}", doc_path)
+    ds = Dataset(path, cams, sources, fps=float(fps) if fps else None, up_axis=doc.get("up_axis"),
+                 layout="ipf-jax")
+    ds.height_m = doc.get("height_m")  # the subject's height when the file gives it (or None)
+    return ds
 
 
 class MemoryDataset(Dataset):
