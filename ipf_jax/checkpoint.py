@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import NamedTuple
 
@@ -32,7 +33,7 @@ class Checkpoint(NamedTuple):
     reinits: list[int]
     init_evaluations: int
     settings_key: str  # the settings the run was started with (must match to resume)
-    anchor: list | None  # last body-origin anchor (3,), see ipf_jax.origin
+    anchor: dict | None  # last frame's FrameAnchor as JSON (ipf_jax.origin)
     anchor_height: float
 
 
@@ -63,9 +64,13 @@ def load(out_dir: Path) -> Checkpoint:
             meta = json.loads(bytes(z["meta"]).decode())
             particles = z["particles"] if "particles" in z else None
             weights = z["weights"] if "weights" in z else None
-    except (OSError, ValueError, KeyError) as e:
+        ck = Checkpoint(meta["next_index"], meta["rows"], particles, weights, meta["shape"],
+                        meta["history"], meta["low_streak"], meta["per_frame"], meta["reinits"],
+                        meta["init_evaluations"], meta["settings_key"], meta["anchor"],
+                        meta["anchor_height"])
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
         raise IPFError(f"corrupt checkpoint ({e})", path) from None
-    return Checkpoint(meta["next_index"], meta["rows"], particles, weights, meta["shape"],
-                      meta["history"], meta["low_streak"], meta["per_frame"], meta["reinits"],
-                      meta["init_evaluations"], meta["settings_key"], meta["anchor"],
-                      meta["anchor_height"])
+    except KeyError as e:  # written by another version of ipf-jax
+        raise IPFError(f"checkpoint from another ipf-jax version (no {e}): rerun without --resume",
+                       path) from None
+    return ck

@@ -61,6 +61,7 @@ COMMAND_MODULES = (
     "ipf_jax.sweep.cli",  # sweep, batch
     "ipf_jax.bench",  # bench
     "ipf_jax.render",  # render
+    "ipf_jax.singlecam.cli",  # fix-single
 )
 
 
@@ -98,6 +99,9 @@ def _parser() -> argparse.ArgumentParser:
     add_tracking_options(p)
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--checkpoint-every", type=int, default=10)
+    p.add_argument("--init-budget", default="default", choices=["default", "small"],
+                   help="effort of the automatic initialisation: small searches ~10x fewer "
+                        "configurations (quick looks, tests); default is the full search")
     p.add_argument("--overlay", action="store_true", help="save overlay PNGs of the fitted model")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func="track")

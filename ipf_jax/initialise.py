@@ -33,7 +33,8 @@ from .camera import Camera
 from .errors import IPFError
 from .filters.base import gaussian_noise
 from .filters.selection import top_distinct
-from .origin import intersect_rays, ray_at_height, silhouette_rays
+from .origin import intersect_rays, is_upright, ray_at_height, silhouette_rays
+from .singlecam import floor_point_single
 from .posing import LEG_CONFIGS_DEG, gait_pose, place_on_floor
 
 CENTROID_HEIGHT = 0.55  # fraction of standing height at the body's area centroid
@@ -85,8 +86,12 @@ def floor_points(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
         foot = p - up * (up @ p)
         return {h: foot for h in heights}
     out = {}
+    seen = [k for k, m in enumerate(masks) if silhouette_rays([m], [cameras[k]])]
     for h in heights:
-        p = ray_at_height(rays[0], up, CENTROID_HEIGHT * h)
+        if is_upright(cameras[seen[0]], up):  # feet at the bottom, head at the top of the image
+            p = floor_point_single(masks[seen[0]], cameras[seen[0]], up, h)
+        else:
+            p = ray_at_height(rays[0], up, CENTROID_HEIGHT * h)
         if p is None:
             raise IPFError("the silhouette's viewing ray does not reach the person's height from this "
                            "single camera (level camera or wrong up axis): give --up or --init-pose")

@@ -9,6 +9,8 @@ displacement does not explain (limb motion moves the centroid a little). No moti
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import cv2
 import numpy as np
 
@@ -35,13 +37,18 @@ def viewing_ray(cam: Camera, u: float, v: float) -> tuple[np.ndarray, np.ndarray
     return cam.centre, d / np.linalg.norm(d)
 
 
-def silhouette_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list[tuple[np.ndarray, np.ndarray]]:
-    rays = []
+def camera_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list:
+    """Per camera, the ray through its largest blob's centroid, or None when it sees no one."""
+    out = []
     for mask, cam in zip(masks, cameras):
         c = blob_centroid(mask)
-        if c is not None:
-            rays.append(viewing_ray(cam, *c))
-    return rays
+        out.append(None if c is None else viewing_ray(cam, *c))
+    return out
+
+
+def silhouette_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The rays of the cameras that see someone."""
+    return [r for r in camera_rays(masks, cameras) if r is not None]
 
 
 def intersect_rays(rays) -> np.ndarray | None:
@@ -65,19 +72,75 @@ def ray_at_height(ray, up: np.ndarray, height: float) -> np.ndarray | None:
     return o + t * d if t > 0 else None
 
 
-def anchor(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
-           height: float) -> np.ndarray | None:
-    """The frame's 3D anchor (see module doc); ``height`` is used with a single camera only."""
-    rays = silhouette_rays(masks, cameras)
+def is_upright(cam: Camera, up: np.ndarray, cos_limit: float = 0.95) -> bool:
+    """True when the camera's image 'up' is within ~18 deg of the world's (a level, unrolled
+    camera: people stand upright in its images, feet at the bottom)."""
+    return float(up @ (cam.R.T @ np.array([0.0, -1.0, 0.0]))) > cos_limit
+
+
+class FrameAnchor(NamedTuple):
+    """What a frame's silhouettes say about where the person is.
+
+    rays : per camera, the ray through its largest blob's centroid, or None.
+    feet : (3,) floor point under the person from a single upright camera (its lowest and highest
+    silhouette pixels and the body height, see :mod:`ipf_jax.singlecam`), or None.
+    """
+
+    rays: list
+    feet: np.ndarray | None
+
+    def to_json(self) -> dict:
+        return {"rays": [None if r is None else [r[0].tolist(), r[1].tolist()] for r in self.rays],
+                "feet": None if self.feet is None else self.feet.tolist()}
+
+    @staticmethod
+    def from_json(doc: dict | None) -> "FrameAnchor | None":
+        if not doc:
+            return None
+        rays = [None if r is None else (np.asarray(r[0]), np.asarray(r[1])) for r in doc["rays"]]
+        return FrameAnchor(rays, None if doc["feet"] is None else np.asarray(doc["feet"]))
+
+
+def observe_anchor(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
+                   height_m: float) -> FrameAnchor:
+    """The frame's anchor evidence (masks and cameras at the same resolution)."""
+    rays = camera_rays(masks, cameras)
+    seen = [k for k, r in enumerate(rays) if r is not None]
+    feet = None
+    if len(seen) == 1 and is_upright(cameras[seen[0]], up):
+        from .singlecam import floor_point_single
+
+        feet = floor_point_single(masks[seen[0]], cameras[seen[0]], up, height_m)
+    return FrameAnchor(rays, feet)
+
+
+def anchor_point(rays, up: np.ndarray, height: float) -> np.ndarray | None:
+    """The 3D anchor of a frame's silhouette rays (see module doc); ``height`` for one camera."""
     p = intersect_rays(rays)
     if p is None and len(rays) == 1:
         p = ray_at_height(rays[0], up, height)
     return p
 
 
-def root_shift(previous: np.ndarray | None, current: np.ndarray | None) -> np.ndarray:
-    """Displacement to apply to the particles' roots (zero when either anchor is unknown)."""
-    if previous is None or current is None:
+def root_shift(previous: FrameAnchor | None, current: FrameAnchor, up: np.ndarray,
+               height: float) -> np.ndarray:
+    """Displacement of the anchor between two frames, zero when it cannot be measured.
+
+    Several cameras seeing someone in both frames: their triangulated centroids. One upright
+    camera: its floor points. One other camera: its centroid rays on the same horizontal plane at
+    ``height`` (so the displacement does not depend on how well that height fits the body).
+    """
+    if previous is None:
         return np.zeros(3)
-    d = current - previous
+    both = [k for k, (p, c) in enumerate(zip(previous.rays, current.rays)) if p is not None and c is not None]
+    if len(both) == 1 and previous.feet is not None and current.feet is not None:
+        d = current.feet - previous.feet
+    elif both:
+        a = anchor_point([previous.rays[k] for k in both], up, height)
+        b = anchor_point([current.rays[k] for k in both], up, height)
+        if a is None or b is None:
+            return np.zeros(3)
+        d = b - a
+    else:
+        return np.zeros(3)
     return d if np.linalg.norm(d) <= MAX_SHIFT_M else np.zeros(3)

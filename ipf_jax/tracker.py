@@ -1,10 +1,16 @@
 """The tracking loop (host side): frames -> masks -> filter step -> estimate -> files.
 
 Per frame: read every camera's mask, resize it once to the scoring resolution, skip cameras with
-an empty mask (recorded), write a missing row when no camera sees anyone; otherwise run one filter
-step (or the automatic initialisation on the first frame), watch the confidence (best weight over
-its recent median) and re-initialise when it collapses. Rows are appended and fsynced per frame;
-a checkpoint every K frames makes ``resume=True`` continue exactly where a run stopped.
+an empty mask (recorded), write a missing row when no camera shows a person-sized blob (empty
+masks, or specks only); otherwise run one filter step (or the automatic initialisation on the
+first frame), watch the confidence (best weight over its recent median) and re-initialise when it
+collapses. Rows are appended and fsynced per frame; a checkpoint every K frames makes
+``resume=True`` continue exactly where a run stopped.
+
+Before the first initialisation every camera with a silhouette must see the point on the floor
+where the cameras' viewing rays meet: one that cannot (the point is behind it or far outside its
+image) has a calibration that does not belong to its masks, and the run stops with an error naming
+it rather than tracking on with a camera that can only ever score zero.
 """
 from __future__ import annotations
 
@@ -21,21 +27,24 @@ from tqdm import tqdm
 from . import __version__, checkpoint
 from .body.limits import Limits, limits_to_json, load_limits
 from .body.shape import BodyShape, default_shape, load_shape, shape_from_json
-from .camera import Camera
+from .camera import Z_NEAR, Camera
 from .dataset import Dataset
 from .errors import IPFError, require
 from .filters import registry
 from .filters.base import FilterState
-from .initialise import InitSettings, initialise
-from .origin import anchor, root_shift
+from .initialise import InitSettings, floor_points, initialise
+from .origin import FrameAnchor, observe_anchor, root_shift, silhouette_rays
 from .likelihood import Observation, Scorer, make_observation, weights_from_counts
 from .outputs import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender, check_writable, write_json_atomic
+from .reference.camera import project_points
 from .reference.kinematics import forward_kinematics
 from .silhouette import resize_mask
 from .world import AXES, detect_up_axis, up_rotation
 
 DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
 DEFAULT_FPS = 20.0  # the paper's rate
+VIEW_MARGIN = 0.5  # of the image size: how far outside its image a camera may place the person
+# (feet or head cut off by the border are common; a whole body half an image away is not)
 
 
 class TrackSettings(NamedTuple):
@@ -73,6 +82,32 @@ def _scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camer
     return [c if s == 1.0 else c.scaled(s) for c, s in zip(cameras, scales)], scales
 
 
+def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
+                      numbers: list[int], where) -> None:
+    """Raise IPFError naming the cameras that cannot see a person standing at ``foot``.
+
+    foot : (3,) floor point (m);  up : (3,) world up;  numbers : 1-based camera numbers.
+    The person is the vertical line from the floor to 1.5 m; a camera sees it when some point of
+    it is in front of the camera and within :data:`VIEW_MARGIN` image sizes of its frame.
+    """
+    line = foot[None] + np.outer([0.0, 0.5, 1.0, 1.5], up)  # (4, 3)
+    blind = []
+    for k, cam in zip(numbers, cameras):
+        uv, z, _ = project_points(cam, line)
+        front = z > Z_NEAR
+        near = ((uv[:, 0] >= -VIEW_MARGIN * cam.width) & (uv[:, 0] <= (1 + VIEW_MARGIN) * cam.width)
+                & (uv[:, 1] >= -VIEW_MARGIN * cam.height) & (uv[:, 1] <= (1 + VIEW_MARGIN) * cam.height))
+        if not np.any(front & near):
+            blind.append((k, cam, "behind it" if not front.any() else "far outside its image"))
+    if blind:
+        k, cam, problem = blind[0]
+        others = "".join(f"; camera {j} ({c.name}): {p}" for j, c, p in blind[1:])
+        raise IPFError(f"camera {k} ({cam.name}) shows a silhouette, but the floor point "
+                       f"({', '.join(f'{v:.2f}' for v in foot)}) m where the cameras' viewing rays meet "
+                       f"is {problem}{others}: its calibration does not fit its masks (wrong file, "
+                       "cameras in another order, or wrong --up)", cam.source or where)
+
+
 def _settings_key(settings: TrackSettings, dataset: Dataset, frames: list[int]) -> str:
     doc = {k: (v if not isinstance(v, np.ndarray) else v.tolist()) for k, v in settings._asdict().items()}
     doc["init"] = settings.init._asdict()
@@ -86,6 +121,8 @@ class Tracker:
 
     def __init__(self, dataset: Dataset, settings: TrackSettings, frames: list[int] | None = None):
         self.dataset = dataset
+        if settings.height_m is None and getattr(dataset, "height_m", None):
+            settings = settings._replace(height_m=float(dataset.height_m))  # from dataset.json
         self.settings = settings
         self.frames = list(frames if frames is not None else dataset.frames)
         require(len(self.frames) > 0, "no frames to track (check --frames)")
@@ -93,7 +130,7 @@ class Tracker:
         require(np.isfinite(fps) and fps > 0, f"frame rate must be > 0 (got {fps})")
         self.fps = float(fps)
         up = (settings.up_axis or dataset.up_axis
-              or detect_up_axis(dataset.cameras, dataset.masks(self.frames[0])))
+              or detect_up_axis(dataset.cameras, self.read_masks(self.frames[0])))
         require(up in AXES, f"unknown up axis {up!r} (choose one of {', '.join(AXES)})")
         self.up_axis = up
         self.U = up_rotation(up)
@@ -108,8 +145,18 @@ class Tracker:
         self.key = jax.random.PRNGKey(settings.seed)
 
     # -- per frame helpers -------------------------------------------------------------------
-    def observe(self, frame: int) -> tuple[Observation, list[np.ndarray]]:
+    def read_masks(self, frame: int) -> list[np.ndarray]:
         masks = self.dataset.masks(frame)
+        for k, m in enumerate(masks, start=1):
+            # float masks (arrays, 32-bit TIFF) can hold NaN, which is neither foreground nor
+            # background: refusing it beats silently counting it as foreground
+            if np.asarray(m).dtype.kind == "f" and np.isnan(m).any():
+                raise IPFError(f"mask of camera {k} has {int(np.isnan(m).sum())} NaN pixels on frame "
+                               f"{frame}", self.dataset.path)
+        return masks
+
+    def observe(self, frame: int) -> tuple[Observation, list[np.ndarray]]:
+        masks = self.read_masks(frame)
         small = [m if s == 1.0 else resize_mask(m, c.height, c.width)
                  for m, s, c in zip(masks, self.scales, self.cameras)]
         return make_observation(small), small
@@ -124,6 +171,15 @@ class Tracker:
 
     def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
         return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
+
+    def check_view(self, obs: Observation, small: list[np.ndarray]) -> None:
+        """Every camera with a silhouette sees where the person stands (see module doc)."""
+        active = [i for i in range(len(small)) if obs.active[i]]
+        height = self.settings.height_m or self.base_shape.height_m
+        foot = floor_points([small[i] for i in active], [self.cameras[i] for i in active],
+                            self.U[:, 2], (height,))[height]
+        check_cameras_see(foot, self.U[:, 2], [self.dataset.cameras[i] for i in active],
+                          [i + 1 for i in active], self.dataset.path)
 
     def initialise(self, frame: int, obs: Observation, small: list[np.ndarray],
                    shape: BodyShape | None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
@@ -150,21 +206,26 @@ class Tracker:
             if ck.settings_key != key:
                 raise IPFError("cannot resume: the run in this folder used other settings or data",
                                out_dir)
+            for stale in [*out_dir.glob(f"{checkpoint.NAME}*.tmp"), *out_dir.glob("run.json*.tmp")]:
+                stale.unlink(missing_ok=True)  # left by a kill during an atomic write
         else:
             ck = checkpoint.Checkpoint(0, 0, None, None, None, [], 0, [], [], 0, key, None, 0.9)
-        joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, ck.rows if resume else None)
-        poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, ck.rows if resume else None)
+        joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, ck.rows if resume else None,
+                                 lazy=True)
+        poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, ck.rows if resume else None,
+                                lazy=True)
         state = None if ck.particles is None else FilterState(ck.particles, ck.weights)
         shape = None if ck.shape is None else shape_from_json(ck.shape)
         history, low_streak = list(ck.history), ck.low_streak
         per_frame, reinits = list(ck.per_frame), list(ck.reinits)
         init_evals = ck.init_evaluations
-        prev_anchor = None if ck.anchor is None else np.asarray(ck.anchor)
+        prev_anchor = FrameAnchor.from_json(ck.anchor)
         anchor_height = ck.anchor_height
         rows = ck.rows
         t_start = time.perf_counter()
         bar = tqdm(self.frames[ck.next_index:], desc=f"track {self.dataset.name}", unit="frame",
                    disable=not progress, initial=0, leave=True)
+        frame = None
         try:
             for idx, frame in enumerate(bar, start=ck.next_index):
                 t0 = time.perf_counter()
@@ -172,20 +233,22 @@ class Tracker:
                 time_s = frame / self.fps
                 skipped = [self.dataset.cameras[i].name for i in range(len(small)) if not obs.active[i]]
                 rec = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": skipped}
-                if not obs.active.any():
+                # specks alone (no blob of a person's size in any camera) cannot place anyone
+                if not silhouette_rays([m for m, a in zip(small, obs.active) if a],
+                                       [c for c, a in zip(self.cameras, obs.active) if a]):
                     nan = np.full(len(JOINT_COLUMNS) - 2, np.nan)
                     joints_csv.write(frame, time_s, nan)
                     poses_csv.write(frame, time_s, np.full(len(POSE_COLUMNS) - 2, np.nan))
                     rec.update(status="missing", weight=None, confidence=None, evaluations=0)
                 else:
                     status = "tracked"
-                    here = anchor([small[i] for i in range(len(small)) if obs.active[i]],
-                                  [self.cameras[i] for i in range(len(small)) if obs.active[i]],
-                                  self.U[:, 2], anchor_height)
-                    shift = root_shift(prev_anchor, here) if self.settings.origin_shift else np.zeros(3)
-                    if here is not None:
-                        prev_anchor = here
+                    here = observe_anchor(list(small), self.cameras, self.U[:, 2],
+                                          (shape or self.base_shape).height_m)
+                    shift = (root_shift(prev_anchor, here, self.U[:, 2], anchor_height)
+                             if self.settings.origin_shift else np.zeros(3))
+                    prev_anchor = here
                     if state is None:
+                        self.check_view(obs, small)
                         q, w, shape, n = self.initialise(frame, obs, small, None)
                         init_evals += n
                         state = self.filter.init(q, w)
@@ -202,10 +265,14 @@ class Tracker:
                     conf = w_best / ref if ref > 0 else 0.0
                     low_streak = low_streak + 1 if conf < self.settings.confidence_drop else 0
                     if status == "tracked" and low_streak >= self.settings.confidence_patience:
-                        q, w, _, n = self.initialise(frame, obs, small, shape)
+                        try:
+                            q, w, _, n = self.initialise(frame, obs, small, shape)
+                        except IPFError as e:  # a recovery attempt that cannot run keeps the track
+                            w, n = None, 0
+                            rec["reinit_error"] = e.message
                         init_evals += n
                         reinits.append(int(frame))
-                        if np.nanmax(w) > w_best:
+                        if w is not None and np.nanmax(w) > w_best:
                             state = self.filter.init(q, w)
                             best = int(np.nanargmax(state.weights))
                             w_best = float(state.weights[best])
@@ -217,7 +284,8 @@ class Tracker:
                     history = (history + [w_best])[-10:]
                     q_best = state.particles[best]
                     pts = forward_kinematics(q_best, shape.values, self.U).points
-                    anchor_height = float(self.U[:, 2] @ pts[0])  # sacrum height (single camera)
+                    if status == "init":  # one plane for the whole run (single camera, see origin)
+                        anchor_height = float(self.U[:, 2] @ pts[0])
                     joints_csv.write(frame, time_s, pts.ravel())
                     poses_csv.write(frame, time_s, q_best)
                     rec.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
@@ -233,7 +301,7 @@ class Tracker:
                         None if state is None else state.weights,
                         None if shape is None else shape.to_json(), history, low_streak,
                         per_frame, reinits, init_evals, key,
-                        None if prev_anchor is None else prev_anchor.tolist(), anchor_height))
+                        None if prev_anchor is None else prev_anchor.to_json(), anchor_height))
                     write_json_atomic(out_dir / "run.json", self.run_doc(per_frame, reinits, init_evals,
                                                                         shape, time.perf_counter() - t_start))
                 if overlay and rec["status"] != "missing":
@@ -242,6 +310,10 @@ class Tracker:
                     save_frame_overlay(out_dir / "overlay", frame, small, self.cameras,
                                        state.particles[best], shape, self.U,
                                        rec["weight"])
+        except IPFError as e:  # say where the run stopped and that its rows are safe
+            hint = ("; rows written so far are kept: fix it and rerun with --resume"
+                    if (out_dir / checkpoint.NAME).exists() else "")
+            raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
         finally:
             bar.close()
             joints_csv.close()
