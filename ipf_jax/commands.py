@@ -47,6 +47,37 @@ def filter_options(args) -> dict:
     return opts
 
 
+#: track/compare flags that shape the filter, named in its errors (``dest``: flag).
+_FILTER_FLAGS = {"filter": "--filter", "budget": "--budget", "particles": "--particles",
+                 "top_m": "--top-m", "points_per_dof": "--points-per-dof",
+                 "interval_width": "--interval-width", "max_speed": "--max-speed",
+                 "interesting": "--interesting", "noise_scale": "--noise-scale", "layers": "--layers"}
+
+
+def check_settings(args) -> None:
+    """Build the filter (and scale the body) once before any data is read: an impossible setting
+    fails at once, and the error names the flags that were given (the filters' own messages name
+    the parameter only)."""
+    from .body.limits import load_limits
+    from .body.shape import default_shape
+    from .filters import registry
+
+    if args.height is not None:
+        try:
+            default_shape().scaled_to(args.height)
+        except IPFError as e:
+            raise IPFError(e.message, f"--height {args.height}") from None
+
+    given = " ".join(f"{flag} {getattr(args, dest)}" for dest, flag in _FILTER_FLAGS.items()
+                     if getattr(args, dest, None) is not None)
+    limits = load_limits(args.limits)  # its errors name the limits file
+    fps = args.fps if args.fps and args.fps > 0 else 20.0  # the rate is checked with the dataset
+    try:
+        registry.make(args.filter, filter_options(args), limits, fps, budget=args.budget)
+    except IPFError as e:
+        raise IPFError(e.message, given) from None
+
+
 def read_pose_rows(path: str | Path) -> np.ndarray:
     """(N, D) poses from a CSV with one named column per DOF (poses.csv convention)."""
     path = Path(path)
@@ -82,11 +113,22 @@ def _init_pose(args, ds):
     return read_pose_rows(path)[0], args.height
 
 
+#: ``track --init-budget``: the full search, or a ~10x cheaper one (one height when given,
+#: 8 headings, one refinement round) for quick looks and end-to-end tests.
+INIT_BUDGETS = {
+    "default": None,
+    "small": dict(headings=8, position_steps=0, modes=1, keep=8, refine_rounds=1,
+                  refine_particles=64, pattern_keep=2, pattern_sweeps=1),
+}
+
+
 def track(args) -> int:
     from .dataset import open_dataset
+    from .initialise import InitSettings
     from .tracker import DEFAULT_RESOLUTION, TrackSettings
     from .tracker import track as run_track
 
+    check_settings(args)
     ds = open_dataset(args.dataset)
     frames = _frames(ds, args.frames)
     init_pose, height = (None, args.height) if not args.init_pose else _init_pose(args, ds)
@@ -96,7 +138,8 @@ def track(args) -> int:
         filter=args.filter, filter_options=filter_options(args), budget=args.budget,
         resolution=args.resolution or DEFAULT_RESOLUTION, fps=args.fps, height_m=height,
         shape_file=args.shape, limits=args.limits, up_axis=args.up, seed=args.seed, chunk=args.chunk,
-        kernel=args.kernel, checkpoint_every=args.checkpoint_every, init_pose=init_pose)
+        kernel=args.kernel, checkpoint_every=args.checkpoint_every, init_pose=init_pose,
+        init=InitSettings(**(INIT_BUDGETS[getattr(args, "init_budget", "default")] or {})))
     res = run_track(ds, args.out, settings, frames=frames, resume=args.resume,
                     progress=not args.quiet, overlay=args.overlay)
     run = res.run

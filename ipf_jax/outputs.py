@@ -25,12 +25,21 @@ def _fmt(values) -> str:
 
 
 class CsvAppender:
-    """Append rows to a CSV, flushing and fsyncing each one (crash-safe)."""
+    """Append rows to a CSV, flushing and fsyncing each one (crash-safe).
 
-    def __init__(self, path: Path, columns: list[str], keep_rows: int | None = None):
+    keep_rows : resume: keep the header and this many rows of the existing file, append after.
+    lazy : create a new file only with its first row, so a run that fails before writing anything
+        leaves a previous run's file as it was.
+    """
+
+    def __init__(self, path: Path, columns: list[str], keep_rows: int | None = None, *,
+                 lazy: bool = False):
         self.path = Path(path)
+        self._header = ",".join(columns) + "\n"
+        self._fh = None
         if keep_rows is None or not self.path.exists():
-            self.path.write_text(",".join(columns) + "\n")
+            if not lazy:
+                self._start()
         else:
             lines = self.path.read_text().splitlines(keepends=True)
             require(lines and lines[0].strip() == ",".join(columns),
@@ -39,15 +48,23 @@ class CsvAppender:
                     f"cannot resume: the file has {len(lines) - 1} rows, the checkpoint needs {keep_rows}",
                     self.path)
             self.path.write_text("".join(lines[: keep_rows + 1]))
-        self._fh = open(self.path, "a")
+            self._fh = open(self.path, "a")
+
+    def _start(self) -> None:
+        self._fh = open(self.path, "w")
+        self._fh.write(self._header)
+        self._fh.flush()
 
     def write(self, frame: int, time_s: float, values: np.ndarray) -> None:
+        if self._fh is None:
+            self._start()
         self._fh.write(f"{frame},{time_s:.6f},{_fmt(values)}\n")
         self._fh.flush()
         os.fsync(self._fh.fileno())
 
     def close(self) -> None:
-        self._fh.close()
+        if self._fh is not None:
+            self._fh.close()
 
 
 def write_json_atomic(path: Path, doc: dict) -> None:

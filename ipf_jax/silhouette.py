@@ -99,6 +99,10 @@ def read_mask(path: str | Path) -> np.ndarray:
     is non-zero (alpha is ignored: masks are often saved opaque).
     """
     image = _decode(path, cv2.IMREAD_UNCHANGED)
+    # only float files (32-bit TIFF) can hold NaN: neither foreground nor background, so refused
+    require(image.dtype.kind != "f" or not np.isnan(image).any(),
+            f"mask has {int(np.isnan(image).sum()) if image.dtype.kind == 'f' else 0} NaN pixels "
+            "(a float image): a mask must be 0 (background) or non-zero (foreground)", path)
     if image.ndim == 3:
         return np.any(image[..., :3] != 0, axis=2)
     return image != 0

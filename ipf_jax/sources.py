@@ -1,4 +1,4 @@
-"""Per-camera frame sources of the ``dataset.json`` layout (format: docs/datasets.md).
+"""Per-camera frame sources of the ``dataset.json`` layout (format: docs/formats.md).
 
 A camera's silhouettes come from one of:
 
@@ -252,7 +252,7 @@ def _median_of(path: Path, k: int, sl: slice | None, prefix: str):
 
 
 def _background(entry: dict, root: Path, own: Path, where: str, doc_path: Path, prefix: str):
-    """A callable returning the background image of one camera (see docs/datasets.md)."""
+    """A callable returning the background image of one camera (see docs/formats.md)."""
     bg = entry.get("background")
     if bg is None or isinstance(bg, str):
         bg = {"median": MEDIAN_FRAMES} if bg is None else {"source": bg}

@@ -1,0 +1,270 @@
+"""Properties of the rasteriser and the likelihood over generated capsules, masks and poses.
+
+Rasteriser (exact integer arithmetic, so exact equalities): the JAX scanline and dense kernels and
+the NumPy reference agree pixel for pixel; counts stay within their bounds; growing every radius
+only adds pixels; mirroring the capsule records mirrors the pixels; an upside-down camera (the
+same camera turned 180 degrees about its axis) sees the image turned 180 degrees. Likelihood: never
+negative, and a model identical to the mask scores the maximum, ``|mask|``.
+
+Images are 40x30 to 80x60. The JAX kernels are compiled once, at 80x60, and run on smaller
+images through their dynamic height and width (as the scorer runs cameras of several sizes),
+so the examples cost no recompiles. Generated capsules stay within a fifth of the image's long
+side of it, inside every guard band involved, so clipping never makes the compared sides differ.
+
+Examples are derandomised (the same in every CI run); ``IPF_JAX_HYPOTHESIS_EXAMPLES=2000`` runs a
+larger, random search.
+"""
+from __future__ import annotations
+
+import functools
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from ipf_jax import synthetic as syn
+from ipf_jax.body import default_shape
+from ipf_jax.body.model import DOF_INDEX
+from ipf_jax.camera import Camera
+from ipf_jax.capsule2d import CAP_FIELDS, capsule_outline
+from ipf_jax.likelihood import weights_from_counts
+from ipf_jax.raster import Roi, dense_counts, pack_rows, scanline_counts
+from ipf_jax.reference import likelihood as ref
+from ipf_jax.reference.raster import counts_from_caps, model_mask
+from ipf_jax.world import up_rotation
+
+H_MAX, W_MAX = 60, 80  # the compiled size; every image fits in it
+N_WORDS = -(-W_MAX // 32)
+SEGMENTS = 5  # capsules per set (fewer are padded with undrawn ones)
+BATCH = 6  # capsule sets per compiled call
+SIZES = [(30, 40), (45, 64), (60, 80), (48, 52)]  # (H, W)
+
+_EXPLORE = int(os.environ.get("IPF_JAX_HYPOTHESIS_EXAMPLES", "0"))
+PROPERTY = settings(max_examples=_EXPLORE or 30, deadline=None, derandomize=not _EXPLORE,
+                    database=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+# --- the kernels, compiled once ---------------------------------------------------------------
+
+@functools.lru_cache(maxsize=None)
+def _kernel(name: str):
+    fn = scanline_counts if name == "scanline" else dense_counts
+
+    def one(caps, words, height, width):
+        nc, model = fn(caps, words, Roi(jnp.int32(0), jnp.int32(0)), H_MAX, N_WORDS, 8, W_MAX,
+                       height, width)
+        return jnp.stack([nc, model])
+
+    return jax.jit(jax.vmap(one, in_axes=(0, None, None, None)))
+
+
+def kernel_counts(name: str, caps: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(N, S, 15) records on an (H, W) mask -> (N, 3) int64 (Nc, Ns, Nm) by a JAX kernel."""
+    h, w = mask.shape
+    words = np.zeros((H_MAX, N_WORDS), np.uint32)
+    words[:h] = pack_rows(mask, N_WORDS)
+    out = []
+    for start in range(0, len(caps), BATCH):
+        block = caps[start:start + BATCH]
+        padded = np.concatenate([block, np.repeat(block[:1], BATCH - len(block), 0)])
+        got = np.asarray(_kernel(name)(jnp.asarray(padded), jnp.asarray(words), jnp.int32(h),
+                                       jnp.int32(w)))[:len(block)].astype(np.int64)
+        out.append(got)
+    nc, model = np.concatenate(out).T
+    return np.stack([nc, int(mask.sum()) - nc, model - nc], -1)
+
+
+def reference_counts(caps: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    return np.array([counts_from_caps(c, mask) for c in caps], np.int64)
+
+
+# --- strategies -------------------------------------------------------------------------------
+
+@st.composite
+def scenes(draw, max_sets: int = BATCH, max_radius: float = 0.2):
+    """(H, W), capsule discs (N, S): c0, r0, c1, r1, drawn, and an (H, W) bool mask."""
+    h, w = draw(st.sampled_from(SIZES))
+    long_side = max(h, w)
+    margin = 0.2 * long_side
+    n = draw(st.integers(1, max_sets))
+    k = draw(st.integers(1, SEGMENTS))
+    x = st.floats(-margin, w - 1 + margin, allow_nan=False)
+    y = st.floats(-margin, h - 1 + margin, allow_nan=False)
+    r = st.floats(0.0, max_radius * long_side, allow_nan=False)
+
+    def arr(strategy, shape):
+        return np.array(draw(st.lists(strategy, min_size=int(np.prod(shape)),
+                                      max_size=int(np.prod(shape)))), np.float64).reshape(shape)
+
+    c0 = np.stack([arr(x, (n, k)), arr(y, (n, k))], -1)
+    c1 = np.stack([arr(x, (n, k)), arr(y, (n, k))], -1)
+    nested = np.array(draw(st.lists(st.booleans(), min_size=n * k, max_size=n * k))).reshape(n, k)
+    c1 = np.where(nested[..., None], c0 + 0.25, c1)  # one disc (nearly) inside the other
+    r0, r1 = arr(r, (n, k)), arr(r, (n, k))
+    drawn = np.array(draw(st.lists(st.booleans(), min_size=n * k, max_size=n * k))).reshape(n, k)
+    drawn[:, 0] = True  # at least one visible capsule per set
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    mask = rng.random((h, w)) < draw(st.sampled_from([0.0, 0.05, 0.3, 0.7, 1.0]))
+    if draw(st.booleans()):  # a silhouette-like block as well as the noise
+        r_0, c_0 = rng.integers(0, h), rng.integers(0, w)
+        mask[r_0:r_0 + h // 2, c_0:c_0 + w // 3] = True
+    return (h, w), (c0, r0, c1, r1, drawn), mask
+
+
+def records(discs) -> np.ndarray:
+    """Disc arrays (N, k) -> (N, SEGMENTS, 15) float32 records, padded with undrawn capsules."""
+    c0, r0, c1, r1, drawn = discs
+    caps = capsule_outline(np, c0, r0, c1, r1, drawn)
+    pad = np.zeros(caps.shape[:1] + (SEGMENTS - caps.shape[1], CAP_FIELDS), np.float32)
+    return np.concatenate([caps, pad], axis=1)
+
+
+def mirror(caps: np.ndarray, size: int, axis: int) -> np.ndarray:
+    """(snapped, mirrored) records: snapped to 1/1024 px (so ``size - 1 - v`` is exact in
+    float32), then mirrored across the image's vertical (axis 0: x -> W-1-x) or horizontal
+    (axis 1) centre line, corners reordered (T0+ T0- T1- T1+ -> T0- T0+ T1+ T1-) so the inside
+    stays on the same side of every edge."""
+    snapped = (np.round(caps.astype(np.float64) * 1024) / 1024).astype(np.float32)
+    out = snapped.copy()
+    for field in (0, 3) + tuple(range(6, 14, 2)):
+        out[..., field + axis] = np.float32(size - 1) - snapped[..., field + axis]
+    corners = out[..., 6:14].reshape(*out.shape[:-1], 4, 2)[..., [1, 0, 3, 2], :]
+    out[..., 6:14] = corners.reshape(*out.shape[:-1], 8)
+    return snapped, out
+
+
+# --- rasteriser -------------------------------------------------------------------------------
+
+@PROPERTY
+@given(scenes())
+def test_scanline_dense_and_reference_agree_and_counts_are_bounded(scene):
+    (h, w), discs, mask = scene
+    caps = records(discs)
+    expected = reference_counts(caps, mask)
+    np.testing.assert_array_equal(kernel_counts("scanline", caps, mask), expected)
+    np.testing.assert_array_equal(kernel_counts("dense", caps, mask), expected)
+    nc, ns, nm = expected.T
+    model = np.array([model_mask(c, h, w).sum() for c in caps])
+    assert np.all(nc >= 0) and np.all(ns >= 0) and np.all(nm >= 0)
+    assert np.all(nc <= np.minimum(mask.sum(), model))
+    np.testing.assert_array_equal(nc + ns, mask.sum())
+    np.testing.assert_array_equal(nc + nm, model)
+    assert np.all(model <= h * w)
+
+
+@PROPERTY
+@given(scenes(max_radius=0.15), st.floats(0.5, 3.0))
+def test_growing_every_radius_only_adds_pixels(scene, grow):
+    (h, w), (c0, r0, c1, r1, drawn), mask = scene
+    small = records((c0, r0, c1, r1, drawn))
+    big = records((c0, r0 + grow, c1, r1 + grow, drawn))
+    for a, b in zip(small, big):
+        before, after = model_mask(a, h, w), model_mask(b, h, w)
+        assert not np.any(before & ~after), "a pixel left the model when its radii grew"
+    got_small, got_big = kernel_counts("scanline", small, mask), kernel_counts("scanline", big, mask)
+    assert np.all(got_big[:, 0] >= got_small[:, 0])  # Nc
+    assert np.all(got_big[:, 0] + got_big[:, 2] >= got_small[:, 0] + got_small[:, 2])  # |model|
+
+
+@PROPERTY
+@given(scenes(), st.sampled_from([0, 1]))
+def test_mirrored_records_give_mirrored_pixels(scene, axis):
+    (h, w), discs, mask = scene
+    caps, flipped = mirror(records(discs), (w, h)[axis], axis)
+    flipped_mask = mask[:, ::-1] if axis == 0 else mask[::-1, :]
+    for a, b in zip(caps, flipped):
+        m = model_mask(a, h, w)
+        np.testing.assert_array_equal(model_mask(b, h, w), m[:, ::-1] if axis == 0 else m[::-1, :])
+    expected = reference_counts(caps, mask)
+    for name in ("scanline", "dense"):
+        np.testing.assert_array_equal(kernel_counts(name, flipped, flipped_mask), expected)
+
+
+# --- likelihood -------------------------------------------------------------------------------
+
+@PROPERTY
+@given(scenes())
+def test_a_model_identical_to_the_mask_scores_the_maximum(scene):
+    (h, w), discs, _ = scene
+    caps = records(discs)
+    mask = model_mask(caps[0], h, w)
+    assume(mask.any())
+    counts = kernel_counts("scanline", caps, mask)
+    w_all, _ = weights_from_counts(counts[:, None, :], np.array([True]))
+    assert np.all(w_all >= 0) and np.all(np.isfinite(w_all))
+    assert w_all[0] == mask.sum() == w_all.max()
+    # ties only where the model misses nothing and adds at most one pixel (w = Nc / max(Ns+Nm, 1))
+    tied = w_all == w_all[0]
+    assert np.all(counts[tied, 1] == 0) and np.all(counts[tied, 2] <= 1)
+
+
+@PROPERTY
+@given(st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 10**6), st.integers(0, 10**6)),
+                min_size=1, max_size=6),
+       st.lists(st.booleans(), min_size=1, max_size=6))
+def test_weights_are_never_negative_and_skip_inactive_cameras(per_camera, active):
+    n_cam = min(len(per_camera), len(active))
+    counts = np.array(per_camera[:n_cam])[None]  # (1, C, 3)
+    active = np.array(active[:n_cam])
+    w, w_cam = weights_from_counts(counts, active)
+    assert np.all(np.isnan(w_cam[:, ~active])) and np.all(w_cam[:, active] >= 0)
+    if active.any():
+        assert w[0] >= 0 and w[0] == pytest.approx(np.mean(w_cam[0, active]))
+    else:
+        assert np.isnan(w[0])
+
+
+SHAPE = default_shape(1.75)
+UP = up_rotation("+z")
+
+
+def upside_down(cam: Camera) -> Camera:
+    """The same camera turned 180 degrees about its optical axis: pixel (u, v) -> (W-1-u, H-1-v).
+    Camera x and y change sign, so the tangential distortion terms do as well."""
+    flip = np.diag([-1.0, -1.0, 1.0])
+    K = cam.K.copy()
+    K[0, 2], K[1, 2] = cam.width - 1 - K[0, 2], cam.height - 1 - K[1, 2]
+    dist = cam.dist * np.array([1, 1, -1, -1, 1])
+    return Camera(K=K, dist=dist, R=flip @ cam.R, T=flip @ cam.T, width=cam.width,
+                  height=cam.height, name=cam.name + "_upside_down")
+
+
+@settings(PROPERTY, max_examples=(_EXPLORE // 10) or 10)
+@given(st.integers(0, 5), st.sampled_from(SIZES), st.floats(-0.2, 0.2), st.floats(-0.002, 0.002),
+       st.integers(0, 2**32 - 1))
+def test_upside_down_camera_sees_the_image_turned(frame, size, k1, p, seed):
+    h, w = size
+    cam = syn.ring_cameras(1, width=w, height=h, focal_px=0.9 * w, radius=4.0)[0]
+    cam = Camera(K=cam.K, dist=np.array([k1, 0.0, p, -p, 0.0]), R=cam.R, T=cam.T, width=w,
+                 height=h, name="cam")
+    q = syn.procedural_walk(6, shape=SHAPE)[frame]
+    rng = np.random.default_rng(seed)
+    poses = np.repeat(q[None], 4, axis=0)
+    poses[1:, 6:] += rng.normal(0, 0.2, (3, poses.shape[1] - 6))
+    mask = syn.render_masks(q[None], SHAPE, [cam])[0, 0] | (rng.random((h, w)) < 0.05)
+    straight = ref.counts(poses, SHAPE.values, UP, [cam], [mask])
+    turned = ref.counts(poses, SHAPE.values, UP, [upside_down(cam)], [mask[::-1, ::-1]])
+    # float64 geometry, mirrored up to rounding; a coordinate rounded across a 1/8 px step moves
+    # at most a few boundary pixels
+    assert np.abs(straight - turned).max() <= 4, (straight, turned)
+    assert straight[0, 0, 0] > 0  # the person is in view: the check is not vacuous
+
+
+@settings(PROPERTY, max_examples=(_EXPLORE // 10) or 10)
+@given(st.integers(0, 5), st.lists(st.floats(-0.3, 0.3), min_size=3, max_size=3))
+def test_rendering_pose_scores_the_maximum_through_the_cameras(frame, offsets):
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75, radius=4.0)
+    q = syn.procedural_walk(6, shape=SHAPE)[frame]
+    masks = list(syn.render_masks(q[None], SHAPE, cams)[0])
+    others = np.repeat(q[None], 3, axis=0)
+    bent = [DOF_INDEX[d] for d in ("left_hip_flexion", "right_knee_flexion", "left_shoulder_flexion")]
+    others[:, bent] += np.array(offsets)
+    counts = ref.counts(np.concatenate([q[None], others]), SHAPE.values, UP, cams, masks)
+    active = np.array([m.any() for m in masks])
+    w, _ = weights_from_counts(counts, active)
+    assert np.all(w >= 0)
+    assert w[0] == np.mean([m.sum() for m, a in zip(masks, active) if a]) == w.max()
