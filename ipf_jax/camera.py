@@ -111,9 +111,9 @@ class CameraArrays(NamedTuple):
     r_max: jnp.ndarray
 
 
-def stack_cameras(cameras: list[Camera]) -> CameraArrays:
-    """Stack host cameras into float32 arrays (NumPy; JAX converts them on first use)."""
-    f = np.float32
+def stack_cameras(cameras: list[Camera], dtype=np.float32) -> CameraArrays:
+    """Stack host cameras into arrays (NumPy, float32 by default; JAX converts them on first use)."""
+    f = dtype
     return CameraArrays(
         K=np.stack([c.K for c in cameras]).astype(f),
         dist=np.stack([c.dist for c in cameras]).astype(f),
@@ -123,21 +123,23 @@ def stack_cameras(cameras: list[Camera]) -> CameraArrays:
     )
 
 
-def project_points(cam: CameraArrays, X: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
+def project_points(cam: CameraArrays, X: jnp.ndarray, xp=jnp) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
     """Project world points through ONE camera (unbatched ``cam`` fields).
 
-    X : (..., 3) world points, metres.
+    X : (..., 3) world points, metres.  ``xp``: array namespace (NumPy for the vectorised baseline).
     Returns uv : (..., 2) pixels, z : (...,) depth (metres), mag : (...,) local radial
     magnification of the distortion (used to scale projected radii).
     """
-    Xc = jnp.einsum("ij,...j->...i", cam.R, X) + cam.T
-    z = Xc[..., 2]
-    zs = jnp.where(z > Z_NEAR, z, Z_NEAR)
-    x = Xc[..., 0] / zs
-    y = Xc[..., 1] / zs
-    r = jnp.sqrt(x * x + y * y)
+    # R X + T written out: elementwise, so XLA fuses it with the rest (a dot product would not)
+    Xc = [cam.R[i, 0] * X[..., 0] + cam.R[i, 1] * X[..., 1] + cam.R[i, 2] * X[..., 2] + cam.T[i]
+          for i in range(3)]
+    z = Xc[2]
+    zs = xp.where(z > Z_NEAR, z, Z_NEAR)
+    x = Xc[0] / zs
+    y = Xc[1] / zs
+    r = xp.sqrt(x * x + y * y)
     # beyond r_max the distortion is extended linearly along the ray
-    s = jnp.where(r > cam.r_max, cam.r_max / jnp.maximum(r, 1e-12), 1.0)
+    s = xp.where(r > cam.r_max, cam.r_max / xp.maximum(r, 1e-12), 1.0)
     xs, ys = x * s, y * s
     k1, k2, p1, p2, k3 = (cam.dist[i] for i in range(5))
     r2 = xs * xs + ys * ys
@@ -147,10 +149,10 @@ def project_points(cam: CameraArrays, X: jnp.ndarray) -> tuple[jnp.ndarray, jnp.
     xd, yd = xd / s, yd / s
     u = cam.K[0, 0] * xd + cam.K[0, 1] * yd + cam.K[0, 2]
     v = cam.K[1, 1] * yd + cam.K[1, 2]
-    return jnp.stack([u, v], axis=-1), z, radial
+    return xp.stack([u, v], axis=-1), z, radial
 
 
-def project_spheres(cam: CameraArrays, centres: jnp.ndarray, radii: jnp.ndarray):
+def project_spheres(cam: CameraArrays, centres: jnp.ndarray, radii: jnp.ndarray, xp=jnp):
     """Project spheres to discs through ONE camera.
 
     centres : (..., 3) metres;  radii : (...,) metres.
@@ -158,7 +160,7 @@ def project_spheres(cam: CameraArrays, centres: jnp.ndarray, radii: jnp.ndarray)
     The disc radius is ``f r / z`` times the local radial magnification (a sphere's exact image is
     an ellipse; the disc is the model's approximation, shared with the NumPy reference).
     """
-    uv, z, mag = project_points(cam, centres)
+    uv, z, mag = project_points(cam, centres, xp)
     f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])
-    r_px = f * radii / jnp.maximum(z, Z_NEAR) * mag
+    r_px = f * radii / xp.maximum(z, Z_NEAR) * mag
     return uv, r_px, z > Z_NEAR

@@ -28,20 +28,23 @@ def capsule_outline(xp, c0, r0, c1, r1, drawn):
     c0, c1 : (..., 2) disc centres (pixels);  r0, r1 : (...,) radii (pixels);
     drawn : (...,) bool (False: behind the camera).  Returns (..., 15).
     """
-    d = c1 - c0
-    length = xp.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2)
+    # x and y as separate arrays until the end: XLA's CPU loops are slow on trailing axes of 2
+    x0, y0, x1, y1 = c0[..., 0], c0[..., 1], c1[..., 0], c1[..., 1]
+    dx, dy = x1 - x0, y1 - y0
+    length = xp.sqrt(dx * dx + dy * dy)
     quad_ok = (length > xp.abs(r0 - r1) + 1e-3) & (length > 1e-3)
     safe_len = xp.where(quad_ok, length, 1.0)
-    u = d / safe_len[..., None]
-    n = xp.stack([-u[..., 1], u[..., 0]], axis=-1)
+    ux, uy = dx / safe_len, dy / safe_len  # unit axis; the normal is (-uy, ux)
     sin_b = xp.where(quad_ok, (r0 - r1) / safe_len, 0.0)
     cos_b = xp.sqrt(xp.clip(1.0 - sin_b * sin_b, 0.0, 1.0))
-    m_plus = cos_b[..., None] * n + sin_b[..., None] * u
-    m_minus = -cos_b[..., None] * n + sin_b[..., None] * u
-    t0p = c0 + r0[..., None] * m_plus
-    t0m = c0 + r0[..., None] * m_minus
-    t1m = c1 + r1[..., None] * m_minus
-    t1p = c1 + r1[..., None] * m_plus
+    # outer tangent directions m+ = cos_b n + sin_b u and m- = -cos_b n + sin_b u
+    px, py = -cos_b * uy + sin_b * ux, cos_b * ux + sin_b * uy
+    mx, my = cos_b * uy + sin_b * ux, -cos_b * ux + sin_b * uy
     flag = xp.where(drawn, xp.where(quad_ok, 2.0, 1.0), 0.0)
-    return xp.concatenate([c0, r0[..., None], c1, r1[..., None], t0p, t0m, t1m, t1p,
-                           flag[..., None]], axis=-1).astype(xp.float32)
+    fields = [x0, y0, r0, x1, y1, r1,
+              x0 + r0 * px, y0 + r0 * py,  # T0+
+              x0 + r0 * mx, y0 + r0 * my,  # T0-
+              x1 + r1 * mx, y1 + r1 * my,  # T1-
+              x1 + r1 * px, y1 + r1 * py,  # T1+
+              flag]
+    return xp.stack([xp.broadcast_to(f, flag.shape) for f in fields], axis=-1).astype(xp.float32)

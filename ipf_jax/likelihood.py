@@ -13,10 +13,22 @@ Definitions (also in docs/formats.md):
 * A camera whose mask is empty on a frame is skipped for that frame (recorded by the tracker); ``w``
   is the mean of ``w_c`` over the remaining cameras; with none left the frame is missing.
 
-:class:`Scorer` owns the compiled functions. It chooses the ROI (bounding box of every mask and of
-every particle's model, so counts are exact), rounds it up to a size bucket that only grows (one
-compile per bucket, none per frame), and evaluates particles in fixed-size chunks so memory stays
-bounded and no array of shape (particles, H, W, segments) is ever built.
+:class:`Scorer` owns the compiled functions and runs them in three stages per chunk of particles,
+because fused into one program XLA recomputes the row intervals once per word:
+
+1. geometry (all cameras): FK, projection, capsule records, and each capsule's extent in each
+   camera, reduced over the chunk (:func:`ipf_jax.raster.segment_extent`);
+2. row intervals of every capsule on its window (one camera per call);
+3. bit words, union, AND with the mask, popcount (one camera per call).
+
+Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
+capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, and a
+union grid per camera holding all windows. Their sizes are static and rounded up to buckets that
+only grow (a run compiles a handful of shapes, none per frame); their offsets are data. Only the
+model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
+(possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
+extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
+chunks so memory stays bounded, and a chunk is sharded over all local devices.
 """
 from __future__ import annotations
 
@@ -25,13 +37,15 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .body.shape import BodyShape
 from .camera import Camera, CameraArrays, project_spheres, stack_cameras
 from .capsule2d import capsule_outline
 from .errors import IPFError, require
 from .kinematics import forward_kinematics
-from .raster import WORD, Roi, dense_counts, interval_stage, pack_rows, quant_scale, word_stage
+from .raster import (WORD, Roi, dense_interval_stage, interval_stage, pack_rows, quant_scale,
+                     segment_extent, word_stage)
 
 KERNELS = ("scanline", "dense")
 
@@ -88,66 +102,65 @@ def project_capsules(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray,
     return jax.vmap(one_camera)(cams)
 
 
-def model_bbox(caps: jnp.ndarray) -> jnp.ndarray:
-    """(..., S, 15) records -> (..., 4) int32 conservative (row_min, row_max, col_min, col_max)."""
-    drawn = caps[..., 14] > 0.5
-    big = 1e6
-    x = jnp.stack([caps[..., 0], caps[..., 3]], -1)
-    y = jnp.stack([caps[..., 1], caps[..., 4]], -1)
-    r = jnp.stack([caps[..., 2], caps[..., 5]], -1)
-    d = drawn[..., None]
-    rmin = jnp.min(jnp.where(d, y - r, big), axis=(-2, -1))
-    rmax = jnp.max(jnp.where(d, y + r, -big), axis=(-2, -1))
-    cmin = jnp.min(jnp.where(d, x - r, big), axis=(-2, -1))
-    cmax = jnp.max(jnp.where(d, x + r, -big), axis=(-2, -1))
-    box = jnp.stack([jnp.floor(rmin) - 1, jnp.ceil(rmax) + 1, jnp.floor(cmin) - 1, jnp.ceil(cmax) + 1], -1)
-    return jnp.clip(box, -1e6, 1e6).astype(jnp.int32)
-
-
-def _geometry_impl(q, shape_values, up, cams):
-    """Stage 0: (B, D) particles -> (B, C, S, 15) capsule records and the chunk's (C, 4) bbox."""
+# -- the compiled stages (B particles; batched here, once) --------------------------------------
+def _geometry_impl(q, shape_values, up, cams, long_side):
+    """Stage 1: (B, D) particles -> C arrays (B, S, 15) of capsule records, one per camera, and
+    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max)."""
     caps = jax.vmap(project_capsules, in_axes=(0, None, None, None))(q, shape_values, up, cams)
-    box = model_bbox(caps)  # (B, C, 4)
-    union = jnp.stack([box[..., 0].min(0), box[..., 1].max(0), box[..., 2].min(0), box[..., 3].max(0)], -1)
-    return caps, union
+    ext = segment_extent(jnp, caps, long_side)  # (B, C, S, 4)
+    union = jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
+                       ext[..., 3].max(0)], -1)
+    return tuple(caps[:, c] for c in range(caps.shape[1])), union
 
 
-def _intervals_impl(caps, row0, widths, n_rows, qs, long_side):
-    """Stage 1 (scanline): (B, C, S, 15) records -> (B, C, S, R) packed row intervals."""
-
-    def one_camera(c, r0, wd):
-        rows = r0 + jnp.arange(n_rows, dtype=jnp.int32)
-        return interval_stage(c, rows, qs, long_side, wd)
-
-    return jax.vmap(jax.vmap(one_camera), in_axes=(0, None, None))(caps, row0, widths)
+def _intervals_impl(caps, win_rows, height, width, n_win, q, long_side):
+    """Stage 2 (scanline), one camera: (B, S, 15) records -> (B, S, R) packed row intervals."""
+    return jax.vmap(lambda c: interval_stage(c, win_rows, n_win, q, long_side, height, width))(caps)
 
 
-def _words_impl(packed, words, row0, word0, heights, widths, n_rows, n_words):
-    """Stage 2 (scanline): packed intervals -> (B, C, 2) int32 (Nc, Nm_total)."""
-
-    def one_camera(p, w, r0, w0, h, wd):
-        return jnp.stack(word_stage(p, w, Roi(r0, w0), n_rows, n_words, h, wd))
-
-    per_particle = jax.vmap(one_camera, in_axes=(0, 0, 0, 0, 0, 0))
-    return jax.vmap(per_particle, in_axes=(0, None, None, None, None, None))(
-        packed, words, row0, word0, heights, widths)
+def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
+    """Stage 2 (dense), one camera: the same packed intervals by per-pixel tests."""
+    return jax.vmap(lambda c: dense_interval_stage(c, win_rows, win_words, n_win, n_win_words, q,
+                                                   long_side, height, width))(caps)
 
 
-def _dense_impl(caps, words, row0, word0, heights, widths, n_rows, n_words, qs, long_side):
-    """The dense kernel: (B, C, S, 15) records -> (B, C, 2)."""
-
-    def one_camera(c, w, r0, w0, h, wd):
-        return jnp.stack(dense_counts(c, w, Roi(r0, w0), n_rows, n_words, qs, long_side, h, wd))
-
-    per_particle = jax.vmap(one_camera, in_axes=(0, 0, 0, 0, 0, 0))
-    return jax.vmap(per_particle, in_axes=(0, None, None, None, None, None))(
-        caps, words, row0, word0, heights, widths)
+def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):
+    """Stage 3, one camera: (B, S, R) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
+    roi = Roi(row0, word0)
+    return jax.vmap(lambda p: jnp.stack(word_stage(p, sil_words, roi, win_rows, win_words,
+                                                   n_win_words, n_rows, n_words)))(packed)
 
 
-_geometry_jit = jax.jit(_geometry_impl)
-_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_rows", "qs", "long_side"))
-_words_jit = jax.jit(_words_impl, static_argnames=("n_rows", "n_words"))
-_dense_jit = jax.jit(_dense_impl, static_argnames=("n_rows", "n_words", "qs", "long_side"))
+_geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side",))
+_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q", "long_side"))
+_dense_jit = jax.jit(_dense_impl, static_argnames=("n_win", "n_win_words", "q", "long_side"))
+_words_jit = jax.jit(_words_impl, static_argnames=("n_win_words", "n_rows", "n_words"))
+
+
+class Sizes(NamedTuple):
+    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words."""
+
+    win_rows: int
+    win_words: int
+    rows: int
+    words: int
+
+
+class Windows(NamedTuple):
+    """Where the windows sit in one frame (host int32 arrays; data, not compile keys).
+
+    row0, word0 : (C,) origin of each camera's union grid.
+    win_rows, win_words : (C, S) origin of each capsule's window.
+    """
+
+    row0: np.ndarray
+    word0: np.ndarray
+    win_rows: np.ndarray
+    win_words: np.ndarray
+
+
+def _round_up(n: int, step: int, cap: int) -> int:
+    return min(cap, -(-max(n, 1) // step) * step)
 
 
 class Scorer:
@@ -155,11 +168,12 @@ class Scorer:
 
     cameras : cameras at scoring resolution (C of them).  shape : BodyShape.
     up : (3, 3) canonical-to-world rotation.  kernel : "scanline" or "dense".
-    chunk : particles per compiled call (static).
+    chunk : particles per compiled call (static; rounded up to a multiple of the device count).
+    devices : devices to shard each chunk's particle axis over (default: all local devices).
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
-                 kernel: str = "scanline", chunk: int = 512):
+                 kernel: str = "scanline", chunk: int = 512, devices=None):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
         self.cameras = list(cameras)
@@ -167,70 +181,99 @@ class Scorer:
         self.set_shape(shape)
         self.up = np.asarray(up, np.float32)
         self.kernel = kernel
-        self.chunk = int(chunk)
         self.heights = np.array([c.height for c in self.cameras], np.int32)
         self.widths = np.array([c.width for c in self.cameras], np.int32)
         self.long_side = int(max(self.heights.max(), self.widths.max()))
         self.q = quant_scale(int(self.heights.max()), int(self.widths.max()))
         self.h_pad = int(self.heights.max())
         self.w_words = int(-(-self.widths.max() // WORD))
-        self._bucket = (0, 0)
+        devices = list(jax.local_devices() if devices is None else devices)
+        self.chunk = -(-int(chunk) // len(devices)) * len(devices)
+        # one device: plain arrays; several: the particle axis is split across them (GSPMD)
+        mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
+        self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
+        self._whole = None if mesh is None else NamedSharding(mesh, PartitionSpec())
+        self.sizes: list[Sizes] = []  # per camera, set by :meth:`plan`
         self.evaluations = 0  # particles scored so far (likelihood evaluations)
 
     def set_shape(self, shape: BodyShape) -> None:
         self.shape = shape
         self.shape_values = np.asarray(shape.values, np.float32)
 
-    # -- ROI ---------------------------------------------------------------------------------
+    def _put(self, x, split: bool = False):
+        if self._split is None:
+            return x
+        return jax.device_put(x, self._split if split else self._whole)
+
     def _chunks(self, particles: np.ndarray):
         n = len(particles)
         b = self.chunk
         for start in range(0, n, b):
             block = particles[start:start + b]
-            if len(block) < b:
-                pad = np.repeat(block[:1], b - len(block), axis=0)
-                block = np.concatenate([block, pad])
+            if len(block) < b:  # pad with copies of a real particle: extents stay the same
+                block = np.concatenate([block, np.repeat(block[:1], b - len(block), axis=0)])
             yield start, block.astype(np.float32)
 
+    # -- stage 1 and the window plan -------------------------------------------------------------
     def geometry(self, particles: np.ndarray):
-        """Stage 0 for every chunk: capsule records (kept on device) and the model's (C, 4) bbox."""
-        caps, boxes = [], []
+        """Stage 1 for every chunk: per-camera capsule records (kept on device) and the (C, S, 4)
+        int64 extent of every capsule over all particles."""
+        caps, exts = [], []
         for _, block in self._chunks(particles):
-            c, box = _geometry_jit(block, self.shape_values, self.up, self.cams)
+            c, ext = _geometry_jit(self._put(block, True), self.shape_values, self.up, self.cams,
+                                   long_side=self.long_side)
             caps.append(c)
-            boxes.append(box)
-        boxes = np.stack([np.asarray(b) for b in boxes])
-        union = np.stack([boxes[..., 0].min(0), boxes[..., 1].max(0),
-                          boxes[..., 2].min(0), boxes[..., 3].max(0)], -1)
+            exts.append(ext)
+        ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
+        union = np.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
+                          ext[..., 3].max(0)], -1)
         return caps, union
 
-    def roi(self, model_box: np.ndarray, full: bool = False):
-        """Window offsets (row0, word0) per camera and the static bucket (n_rows, n_words).
-
-        Only the model's pixels need to be inside the window: Nc counts model pixels on the mask
-        and |mask| is known, so the (possibly cluttered) mask's extent does not matter. The bucket
-        only grows, so a run compiles a handful of shapes, never one per frame.
-        """
-        n_cam = len(self.cameras)
+    def plan(self, ext: np.ndarray, full: bool = False) -> Windows:
+        """Windows for capsule extents (C, S, 4); grows :attr:`sizes` (one per camera) when they
+        do not fit. ``full``: every window is the whole image (the counts do not depend on it)."""
+        n_cam, n_seg = ext.shape[:2]
         if full:
-            self._bucket = (self.h_pad, self.w_words)
-            return np.zeros(n_cam, np.int32), np.zeros(n_cam, np.int32)
-        r_lo = np.clip(model_box[:, 0], 0, self.heights - 1)
-        r_hi = np.clip(model_box[:, 1], 0, self.heights - 1)
-        w_lo = np.clip(model_box[:, 2], 0, self.widths - 1) // WORD
-        w_hi = np.clip(model_box[:, 3], 0, self.widths - 1) // WORD
-        need_rows = int((r_hi - r_lo + 1).max())
-        need_words = int((w_hi - w_lo + 1).max())
-        rows_step = max(16, -(-self.h_pad // 16))
-        n_rows = min(self.h_pad, -(-need_rows // rows_step) * rows_step)
-        n_words = min(self.w_words, -(-need_words // 2) * 2)
-        n_rows, n_words = max(n_rows, self._bucket[0]), max(n_words, self._bucket[1])
-        self._bucket = (n_rows, n_words)
-        row0 = np.minimum(r_lo, self.h_pad - n_rows).astype(np.int32)
-        word0 = np.minimum(w_lo, self.w_words - n_words).astype(np.int32)
-        return row0, word0
+            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words)] * n_cam
+            zero = np.zeros(n_cam, np.int32)
+            return Windows(zero, zero, np.zeros((n_cam, n_seg), np.int32),
+                           np.zeros((n_cam, n_seg), np.int32))
+        h, w = self.heights[:, None], self.widths[:, None]
+        seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
+        r_lo, r_hi = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
+        w_lo, w_hi = np.clip(ext[..., 2], 0, w - 1) // WORD, np.clip(ext[..., 3], 0, w - 1) // WORD
 
-    # -- scoring -----------------------------------------------------------------------------
+        def span(lo, hi):
+            """Per camera: largest window, union of the visible capsules (first, size)."""
+            win = np.max(np.where(seen, hi - lo + 1, 1), axis=1)
+            g_lo = np.where(seen, lo, np.iinfo(np.int64).max).min(1)
+            g_hi = np.where(seen, hi, -1).max(1)
+            g_lo = np.where(g_hi >= 0, g_lo, 0)
+            return win, np.maximum(g_hi - g_lo + 1, 1), g_lo
+
+        win_r, grid_r, g_row = span(r_lo, r_hi)
+        win_w, grid_w, g_word = span(w_lo, w_hi)
+        # per camera (a camera nearer the person needs bigger windows); buckets only grow;
+        # rows in steps of 8 (windows) and 16 (grid), words exactly
+        sizes = []
+        for c in range(n_cam):
+            old = self.sizes[c] if len(self.sizes) == n_cam else Sizes(0, 0, 0, 0)
+            n_win = max(old.win_rows, _round_up(int(win_r[c]), 8, self.h_pad))
+            n_win_words = max(old.win_words, int(win_w[c]))
+            n_rows = max(old.rows, n_win, _round_up(int(grid_r[c]), 16, self.h_pad))
+            n_words = max(old.words, n_win_words, _round_up(int(grid_w[c]), 2, self.w_words))
+            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
+        self.sizes = sizes
+        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*sizes))
+        row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
+        word0 = np.minimum(g_word[:, None], self.w_words - n_words)
+        # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
+        win_rows = np.clip(np.where(seen, r_lo, row0), row0, row0 + n_rows - n_win)
+        win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
+        return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
+                       win_rows.astype(np.int32), win_words.astype(np.int32))
+
+    # -- scoring ---------------------------------------------------------------------------------
     def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False) -> np.ndarray:
         """(N, C, 3) int64 counts (Nc, Ns, Nm) for (N, D) particles."""
         particles = np.asarray(particles)
@@ -240,22 +283,29 @@ class Scorer:
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        caps, box = self.geometry(particles)
-        row0, word0 = self.roi(box, full=full_roi)
-        n_rows, n_words = self._bucket
-        out = np.empty((len(particles), len(self.cameras), 2), np.int64)
-        for (start, _), c in zip(self._chunks(particles), caps):
-            if self.kernel == "scanline":
-                # separate compiled stages: fused together, XLA recomputes the intervals per word
-                packed = _intervals_jit(c, row0, self.widths, n_rows=n_rows, qs=self.q,
+        caps, ext = self.geometry(particles)
+        win = self.plan(ext, full=full_roi)
+        sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
+        pending = []
+        for (start, _), chunk_caps in zip(self._chunks(particles), caps):
+            per_cam = []
+            for c, cap in enumerate(chunk_caps):
+                h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
+                if self.kernel == "scanline":
+                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
+                                            long_side=self.long_side)
+                else:
+                    packed = _dense_jit(cap, win.win_rows[c], win.win_words[c], h, w,
+                                        n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
                                         long_side=self.long_side)
-                res = _words_jit(packed, obs.words, row0, word0, self.heights, self.widths,
-                                 n_rows=n_rows, n_words=n_words)
-            else:
-                res = _dense_jit(c, obs.words, row0, word0, self.heights, self.widths, n_rows=n_rows,
-                                 n_words=n_words, qs=self.q, long_side=self.long_side)
+                per_cam.append(_words_jit(packed, sil[c], win.row0[c], win.word0[c], win.win_rows[c],
+                                          win.win_words[c], n_win_words=sz.win_words,
+                                          n_rows=sz.rows, n_words=sz.words))
+            pending.append((start, per_cam))
+        out = np.empty((len(particles), len(self.cameras), 2), np.int64)
+        for start, per_cam in pending:  # everything is dispatched before the first result is read
             take = min(self.chunk, len(particles) - start)
-            out[start:start + take] = np.asarray(res)[:take]
+            out[start:start + take] = np.stack([np.asarray(r) for r in per_cam], 1)[:take]
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
         return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)

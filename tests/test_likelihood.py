@@ -13,8 +13,8 @@ SHAPE = default_shape()
 U = up_rotation("+z")
 
 
-@pytest.fixture(scope="module")
-def scene():
+def make_scene():
+    """2 synthetic cameras (160x120), 6 rendered frames, 40 particles around the pose of frame 2."""
     cams = syn.ring_cameras(2, width=160, height=120, focal_px=150)
     q = syn.procedural_walk(6, shape=SHAPE)
     masks = syn.render_masks(q, SHAPE, cams)
@@ -23,6 +23,11 @@ def scene():
     particles[1:, 6:] += rng.normal(0, 0.15, size=(39, 25))
     particles[1:, :3] += rng.normal(0, 0.05, size=(39, 3))
     return cams, q, masks, particles
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene()
 
 
 def test_scorer_matches_numpy_pipeline(scene):
@@ -74,17 +79,59 @@ def test_empty_mask_camera_is_inactive(scene):
     assert obs.active.tolist() == [True, False]
 
 
-def test_no_retrace_across_frames(scene):
-    from ipf_jax import likelihood
+def test_model_partly_outside_the_image_is_exact(scene):
+    """Windows hold every visible pixel also when the body leaves the image or the camera."""
+    cams, q, masks, particles = scene
+    moved = particles.copy()
+    moved[:, 0] += np.linspace(-3.0, 3.0, len(moved))  # sideways: out of view at both ends
+    moved[::7, 2] += 2.5  # some far above
+    obs = make_observation(list(masks[2]))
+    windowed = Scorer(cams, SHAPE, U, chunk=16).counts(moved, obs)
+    full = Scorer(cams, SHAPE, U, chunk=16).counts(moved, obs, full_roi=True)
+    np.testing.assert_array_equal(windowed, full)
+    assert np.any(windowed[:, :, 0] == 0) and np.any(windowed[:, :, 0] > 0)
+
+
+def test_windows_hold_every_capsule(scene):
     cams, q, masks, particles = scene
     scorer = Scorer(cams, SHAPE, U, chunk=16)
-    scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the ROI bucket
-    wrapped = chex.assert_max_traces(likelihood._intervals_impl, n=1)
-    old = likelihood._intervals_jit
-    likelihood._intervals_jit = __import__("jax").jit(
-        wrapped, static_argnames=("n_rows", "qs", "long_side"))
+    _, ext = scorer.geometry(particles)
+    win = scorer.plan(ext)
+    n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*scorer.sizes))
+    h, w = scorer.heights[:, None], scorer.widths[:, None]
+    seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
+    top, bottom = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
+    left, right = np.clip(ext[..., 2], 0, w - 1) // 32, np.clip(ext[..., 3], 0, w - 1) // 32
+    assert np.all(~seen | ((win.win_rows <= top) & (bottom < win.win_rows + n_win)))
+    assert np.all(~seen | ((win.win_words <= left) & (right < win.win_words + n_win_words)))
+    row0, word0 = win.row0[:, None], win.word0[:, None]
+    assert np.all((row0 <= win.win_rows) & (win.win_rows + n_win <= row0 + n_rows))
+    assert np.all((word0 <= win.win_words) & (win.win_words + n_win_words <= word0 + n_words))
+    assert np.all(row0 + n_rows <= scorer.h_pad) and np.all(word0 + n_words <= scorer.w_words)
+    assert np.all(n_win < n_rows)  # the windows are smaller than the model's box
+
+
+def test_no_retrace_across_frames(scene):
+    """One compile per shape: after the first frame, no stage is traced again."""
+    import jax
+
+    from ipf_jax import likelihood
+
+    cams, q, masks, particles = scene
+    scorer = Scorer(cams, SHAPE, U, chunk=16)
+    scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
+    stages = {"_geometry_jit": ("_geometry_impl", ("long_side",)),
+              "_intervals_jit": ("_intervals_impl", ("n_win", "q", "long_side")),
+              "_words_jit": ("_words_impl", ("n_win_words", "n_rows", "n_words"))}
+    saved = {name: getattr(likelihood, name) for name in stages}
     try:
-        for i in range(1, 6):
-            scorer.counts(particles, make_observation(list(masks[i])))
+        for name, (impl, static) in stages.items():
+            counted = chex.assert_max_traces(getattr(likelihood, impl), n=1)
+            setattr(likelihood, name, jax.jit(counted, static_argnames=static))
+        rng = np.random.default_rng(1)
+        for i in range(1, 6):  # new masks and a moving cloud, as in tracking
+            moved = particles + rng.normal(0, 0.003, size=particles.shape)
+            scorer.counts(moved, make_observation(list(masks[i])))
     finally:
-        likelihood._intervals_jit = old
+        for name, fn in saved.items():
+            setattr(likelihood, name, fn)

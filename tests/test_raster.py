@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ipf_jax.capsule2d import capsule_outline
-from ipf_jax.raster import Roi, dense_counts, pack_rows, quant_scale, scanline_counts
+from ipf_jax.raster import (WORD, Roi, dense_counts, dense_interval_stage, interval_stage, pack_rows,
+                            quant_scale, scanline_counts, segment_extent, word_stage)
 from ipf_jax.reference.raster import counts_from_caps, model_mask
 
 
@@ -21,6 +22,15 @@ def random_caps(rng, n_sets, height, width, n_seg=17):
     c1[nested] = c0[nested] + 0.5
     drawn = rng.random((n_sets, n_seg)) > 0.05
     return capsule_outline(np, c0, r0, c1, r1, drawn)
+
+
+def far_caps(height, width):
+    """Capsules far outside the image with huge radii: clipped to the guard band, they reach in."""
+    L = max(height, width)
+    c0 = np.array([[5.0 * L, 0.5 * height], [0.5 * width, -4.0 * L], [-3.0 * L, 3.0 * L]])
+    c1 = c0 + np.array([[1.0 * L, 0.3 * L], [0.2 * L, -0.5 * L], [0.0, 0.0]])
+    r = np.array([3.5 * L, 2.2 * L, 4.0 * L])
+    return capsule_outline(np, c0, r, c1, 0.5 * r, np.ones(3, bool))
 
 
 def counts_all(caps, mask, kernel):
@@ -80,3 +90,51 @@ def test_disc_area_close_to_pi_r_squared():
                           np.float64(20.0), np.True_)
     area = model_mask(rec[None], 80, 100).sum()
     assert abs(area - np.pi * 400) < 0.02 * np.pi * 400
+
+
+def test_extent_bounds_every_pixel_even_after_guard_band_clipping():
+    h, w = 50, 70
+    caps = np.concatenate([random_caps(np.random.default_rng(5), 30, h, w, n_seg=1)[:, 0],
+                           far_caps(h, w)])
+    ext = segment_extent(np, caps, max(h, w))
+    assert np.any(model_mask(far_caps(h, w)[:1], h, w))  # the far capsule does reach in
+    for rec, (r0, r1, c0, c1) in zip(caps, ext):
+        rows, cols = np.nonzero(model_mask(rec[None], h, w))
+        if len(rows):
+            assert r0 <= rows.min() and rows.max() <= r1 and c0 <= cols.min() and cols.max() <= c1
+
+
+@pytest.mark.parametrize("kernel", ["scanline", "dense"])
+def test_windowed_kernels_are_exact_wherever_the_windows_sit(kernel):
+    """Any windows holding each capsule's pixels give the reference's counts (random placement)."""
+    h, w = 60, 80
+    rng = np.random.default_rng(21)
+    caps = np.concatenate([random_caps(rng, 24, h, w, n_seg=6), np.repeat(far_caps(h, w)[None], 24, 0)],
+                          axis=1)  # (24, 9, 15)
+    mask = rng.random((h, w)) < 0.4
+    ext = segment_extent(np, caps, max(h, w)).astype(np.int64)  # (N, S, 4)
+    lo_r, hi_r = np.clip(ext[..., 0].min(0), 0, h - 1), np.clip(ext[..., 1].max(0), 0, h - 1)
+    lo_w, hi_w = np.clip(ext[..., 2].min(0), 0, w - 1) // WORD, np.clip(ext[..., 3].max(0), 0, w - 1) // WORD
+    n_win = min(h, int(np.max(hi_r - lo_r + 1)) + 3)
+    n_win_words = int(np.max(hi_w - lo_w + 1))
+    words = pack_rows(mask)
+    n_words = words.shape[1]
+    # a random start that keeps [lo, hi] inside the window and the window inside the image
+    win_rows = rng.integers(np.maximum(hi_r - n_win + 1, 0), np.minimum(lo_r, h - n_win) + 1)
+    win_words = rng.integers(np.maximum(hi_w - n_win_words + 1, 0),
+                             np.minimum(lo_w, n_words - n_win_words) + 1)
+    q = quant_scale(h, w)
+    wr, ww = jnp.asarray(win_rows, jnp.int32), jnp.asarray(win_words, jnp.int32)
+
+    def one(c):
+        if kernel == "scanline":
+            packed = interval_stage(c, wr, n_win, q, max(h, w), h, w)
+        else:
+            packed = dense_interval_stage(c, wr, ww, n_win, n_win_words, q, max(h, w), h, w)
+        return jnp.stack(word_stage(packed, jnp.asarray(words), Roi(jnp.int32(0), jnp.int32(0)), wr, ww,
+                                    n_win_words, h, n_words))
+
+    got = np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(caps)))
+    expected = np.array([counts_from_caps(c, mask) for c in caps])
+    np.testing.assert_array_equal(got[:, 0], expected[:, 0])
+    np.testing.assert_array_equal(got[:, 1] - got[:, 0], expected[:, 2])
