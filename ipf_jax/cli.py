@@ -25,6 +25,16 @@ def _slice(text: str) -> slice:
     return slice(*parts)
 
 
+def _range(text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--floor-range must look like LO,HI in metres (got {text!r})") from None
+    if not lo <= hi:
+        raise argparse.ArgumentTypeError(f"--floor-range needs LO <= HI (got {text!r})")
+    return lo, hi
+
+
 def add_tracking_options(p: argparse.ArgumentParser) -> None:
     """Options shared by track, compare, and the sweep/batch configs."""
     p.add_argument("--filter", default="ipf", help="ipf (default), apf or sir")
@@ -49,6 +59,9 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--kernel", default="scanline", choices=["scanline", "dense"])
     p.add_argument("--frames", type=_slice, help="Python slice of frame numbers, A:B (B excluded)")
     p.add_argument("--init-pose", help="initial pose: poses.csv row file, or bodytrack InitialPose.txt")
+    p.add_argument("--floor-range", type=_range, default=None, metavar="LO,HI",
+                   help="floor contact constraint (off by default): keep the body's lowest surface "
+                        "point LO..HI m above the floor, e.g. -0.03,0.10 (see ipf_jax.contact)")
 
 
 #: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets

@@ -78,6 +78,11 @@ def check_settings(args) -> None:
         raise IPFError(e.message, given) from None
 
 
+def floor_range(args) -> tuple[float, float] | None:
+    """``--floor-range LO,HI`` -> TrackSettings.floor_range (None: no floor contact)."""
+    return getattr(args, "floor_range", None)
+
+
 def read_pose_rows(path: str | Path) -> np.ndarray:
     """(N, D) poses from a CSV with one named column per DOF (poses.csv convention)."""
     path = Path(path)
@@ -139,6 +144,7 @@ def track(args) -> int:
         resolution=args.resolution or DEFAULT_RESOLUTION, fps=args.fps, height_m=height,
         shape_file=args.shape, limits=args.limits, up_axis=args.up, seed=args.seed, chunk=args.chunk,
         kernel=args.kernel, checkpoint_every=args.checkpoint_every, init_pose=init_pose,
+        floor_range=floor_range(args),
         init=InitSettings(**(INIT_BUDGETS[getattr(args, "init_budget", "default")] or {})))
     res = run_track(ds, args.out, settings, frames=frames, resume=args.resume,
                     progress=not args.quiet, overlay=args.overlay)

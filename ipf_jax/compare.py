@@ -27,6 +27,7 @@ import csv
 import json
 import os
 import time
+from functools import partial
 from pathlib import Path
 from typing import NamedTuple, Sequence
 
@@ -203,7 +204,7 @@ def compare(dataset: Dataset, out_dir: str | Path, filters: str | Sequence[str],
             tracker = Tracker(dataset, shared._replace(filter=n, filter_options=per_filter[n].filter_options),
                               [frames[0]] + frames)
             logs.append([])
-            tracker.filter = recording(tracker.filter, tracker.scorer, logs[-1])
+            tracker.filter_hook = partial(recording, scorer=tracker.scorer, log=logs[-1])
             result = tracker.run(out_dir / n, progress=progress)
         runs[n] = (tracker, result, [fastest(steps) for steps in zip(*logs)])
     load.append(os.getloadavg()[0])
@@ -467,7 +468,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the comparison; prints the table. IPFError propagates to the main CLI (exit 2)."""
-    from .commands import _frames, _init_pose, filter_options
+    from .commands import _frames, _init_pose, filter_options, floor_range
     from .dataset import open_dataset
     from .tracker import DEFAULT_RESOLUTION
 
@@ -481,7 +482,7 @@ def run(args: argparse.Namespace) -> int:
     shared = {k: getattr(args, k) for k in ("fps", "limits", "seed", "chunk", "kernel")}
     settings = TrackSettings(filter_options=filter_options(args), height_m=height, init_pose=init_pose,
                              resolution=args.resolution or DEFAULT_RESOLUTION, shape_file=args.shape,
-                             up_axis=args.up, **shared)
+                             up_axis=args.up, floor_range=floor_range(args), **shared)
     res = compare(ds, args.out, names, args.budget, settings=settings, frames=frames, references=refs,
                   peer_seconds=args.peer_seconds, repeat=args.repeat, progress=not args.quiet)
     print(markdown_table(res.rows, list(COLUMNS)))

@@ -45,7 +45,7 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
     require(1 <= n_cameras <= 8, f"--cameras must be 1..8 (got {n_cameras})")
     out = check_writable(out)
     shape = default_shape(DEMO_HEIGHT_M)
-    cams = syn.ring_cameras(n_cameras)
+    cams = syn.ring_cameras(n_cameras, radius=4.0, focal_px=380.0)
     q = syn.procedural_walk(n_frames, DEMO_FPS, shape=shape, heading_deg=10.0, start=(-0.5, -0.2))
     print(f"ipf-jax demo: a procedural {n_frames}-frame walk ({DEMO_HEIGHT_M} m subject, "
           f"{DEMO_FPS:g} Hz) rendered into {n_cameras} virtual cameras with the tracker's own model.")

@@ -28,6 +28,7 @@ from . import __version__, checkpoint
 from .body.limits import Limits, limits_to_json, load_limits
 from .body.shape import BodyShape, default_shape, load_shape, shape_from_json
 from .camera import Z_NEAR, Camera
+from .contact import FloorContact
 from .dataset import Dataset
 from .errors import IPFError, require
 from .filters import registry
@@ -66,6 +67,7 @@ class TrackSettings(NamedTuple):
     init: InitSettings = InitSettings()
     init_pose: np.ndarray | None = None
     origin_shift: bool = True  # body origin positioning from the silhouettes (see ipf_jax.origin)
+    floor_range: tuple[float, float] | None = None  # floor contact (ipf_jax.contact); None = off
 
 
 class RunResult(NamedTuple):
@@ -138,11 +140,20 @@ class Tracker:
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
         self.cameras, self.scales = _scoring_cameras(dataset.cameras, settings.resolution)
-        self.filter = registry.make(settings.filter, settings.filter_options, self.limits, self.fps,
-                                    budget=settings.budget)
+        self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
+        self.filter = self.make_filter(None)
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
                              chunk=settings.chunk)
         self.key = jax.random.PRNGKey(settings.seed)
+
+    def make_filter(self, shape: BodyShape | None):
+        """The filter; once the subject's shape is known its limits include floor contact."""
+        s = self.settings
+        limits = self.limits
+        if shape is not None and s.floor_range is not None:
+            limits = FloorContact(self.limits, shape, self.U, *s.floor_range)
+        f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget)
+        return f if self.filter_hook is None else self.filter_hook(f)
 
     # -- per frame helpers -------------------------------------------------------------------
     def read_masks(self, frame: int) -> list[np.ndarray]:
@@ -216,6 +227,7 @@ class Tracker:
                                 lazy=True)
         state = None if ck.particles is None else FilterState(ck.particles, ck.weights)
         shape = None if ck.shape is None else shape_from_json(ck.shape)
+        self.filter = self.make_filter(shape)
         history, low_streak = list(ck.history), ck.low_streak
         per_frame, reinits = list(ck.per_frame), list(ck.reinits)
         init_evals = ck.init_evaluations
@@ -250,6 +262,7 @@ class Tracker:
                     if state is None:
                         self.check_view(obs, small)
                         q, w, shape, n = self.initialise(frame, obs, small, None)
+                        self.filter = self.make_filter(shape)
                         init_evals += n
                         state = self.filter.init(q, w)
                         status, evals = "init", 0
@@ -340,7 +353,8 @@ class Tracker:
                          "limits": s.limits, "seed": s.seed, "kernel": s.kernel, "chunk": s.chunk,
                          "budget": s.budget, "height_m_given": s.height_m,
                          "confidence_drop": s.confidence_drop,
-                         "confidence_patience": s.confidence_patience, "init": s.init._asdict()},
+                         "confidence_patience": s.confidence_patience, "init": s.init._asdict(),
+                         "floor_range_m": s.floor_range, "origin_shift": s.origin_shift},
             "limits": limits_to_json(self.limits),
             "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
             "height_m": shape.height_m, "shape": shape.to_json(),

@@ -193,14 +193,16 @@ def limb_error(scene, q: np.ndarray) -> float:
     return float(np.linalg.norm(ours - true, axis=-1).mean())
 
 
-@pytest.mark.parametrize("name, budget, steps, estimates", [
-    ("ipf", 486, 5, ("best",)),  # the paper's estimate: the heaviest particle
-    ("apf", 600, 6, ("best", "mean")),
+@pytest.mark.parametrize("name, budget, steps, noise, estimates", [
+    ("ipf", 486, 5, 0.3, ("best",)),  # the paper's estimate: the heaviest particle
+    ("apf", 600, 6, 0.3, ("best", "mean")),
     # Condensation's estimate is the mean: its heaviest particle carries a full step of 31-DOF
-    # diffusion (nothing narrows it within a frame), so it stays a pixel or two off
-    ("sir", 600, 15, ("mean",)),
+    # diffusion (nothing narrows it within a frame), so it stays a pixel or two off; its noise is
+    # all it has to converge with (half the walking rates here: a static subject)
+    ("sir", 600, 25, 0.5, ("mean",)),
 ])
-def test_filter_recovers_a_known_pose_from_a_perturbed_start(scene, name, budget, steps, estimates):
+def test_filter_recovers_a_known_pose_from_a_perturbed_start(scene, name, budget, steps, noise,
+                                                            estimates):
     """SYNTHETIC (self-rendered frame): a static subject, legs 8 deg and root 2-3 cm off at start."""
     obs = make_observation(list(scene["masks"]))
     scorer = Scorer(scene["cams"], scene["shape"], up_rotation("+z"), chunk=CHUNK)
@@ -208,7 +210,7 @@ def test_filter_recovers_a_known_pose_from_a_perturbed_start(scene, name, budget
     def measure(particles):
         return weights_from_counts(scorer.counts(particles, obs), obs.active)[0]
 
-    f = registry.make(name, {"noise_scale": 0.3}, LIMITS, FPS, budget)  # static: gentle noise
+    f = registry.make(name, {"noise_scale": noise}, LIMITS, FPS, budget)  # static: gentle noise
     start = scene["start"][None]
     state = f.init(start, measure(start))
     before = limb_error(scene, scene["start"])
