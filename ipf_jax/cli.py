@@ -66,32 +66,38 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
 
 #: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets
 #: ``func=run`` (``run(args) -> int`` handles IPFError itself or lets :func:`main` do it).
-COMMAND_MODULES = (
-    "ipf_jax.gait.cli",  # gait
-    "ipf_jax.export.cli",  # export
-    "ipf_jax.compare",  # compare
-    "ipf_jax.evaluation.cli",  # eval
-    "ipf_jax.sweep.cli",  # sweep, batch
-    "ipf_jax.bench",  # bench
-    "ipf_jax.render",  # render
-    "ipf_jax.singlecam.cli",  # fix-single
-)
+#: name -> (module, one-line help). Only the invoked command's module is imported (they pull in
+#: JAX, SciPy and matplotlib, seconds of start-up); the others appear in ``--help`` by name.
+MODULE_COMMANDS = {
+    "gait": ("ipf_jax.gait.cli", "gait events and parameters from joints.csv, .trc or .c3d"),
+    "export": ("ipf_jax.export.cli", "write tracking results as TRC, C3D, BVH or CSV"),
+    "compare": ("ipf_jax.compare", "IPF, APF and SIR side by side at the same likelihood budget"),
+    "eval": ("ipf_jax.evaluation.cli", "3D error of an estimate against a reference (MPJPE, per joint, per axis)"),
+    "sweep": ("ipf_jax.sweep.cli", "accuracy vs cost over a grid of settings (resumable; local or Ray)"),
+    "batch": ("ipf_jax.sweep.cli", "track many recordings with one set of settings (resumable; local or Ray)"),
+    "bench": ("ipf_jax.bench", "throughput of the measure step (JAX vs NumPy) and tracking s/frame"),
+    "render": ("ipf_jax.render", "overlay video/images of a tracked run over each camera's frames or masks"),
+    "fix-single": ("ipf_jax.singlecam.cli", "single-camera post-processing of a run: leg swaps, steady depth"),
+}
 
 
-def _add_module_commands(sub) -> None:
+def _invoked(argv: list[str]) -> str | None:
+    """The sub-command named on the command line (the first argument not starting with -)."""
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
+def _add_module_commands(sub, argv: list[str]) -> None:
     import importlib
 
-    for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as e:
-            if e.name and name.startswith(e.name):  # command not installed in this build
-                continue
-            raise
-        module.add_parser(sub)
+    chosen = _invoked(argv)
+    if chosen in MODULE_COMMANDS:
+        importlib.import_module(MODULE_COMMANDS[chosen][0]).add_parser(sub)
+        return
+    for name, (_, help_text) in MODULE_COMMANDS.items():  # listed in --help, parsed when invoked
+        sub.add_parser(name, help=help_text, add_help=False)
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
     ap = argparse.ArgumentParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
                                  "analysis by Interval Particle Filtering (JAX).")
@@ -131,12 +137,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--up")
     p.set_defaults(func="score")
 
-    _add_module_commands(sub)
+    _add_module_commands(sub, sys.argv[1:] if argv is None else argv)
     return ap
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = _parser()
+    ap = _parser(argv)
     args = ap.parse_args(argv)
     from . import commands, jax_setup
 

@@ -163,6 +163,14 @@ def _round_up(n: int, step: int, cap: int) -> int:
     return min(cap, -(-max(n, 1) // step) * step)
 
 
+def _grow(old: int, need: int, step: int, cap: int) -> int:
+    """A bucket that holds ``need``: unchanged when it already does, else at least 25 % larger than
+    before, so a person walking towards a camera costs a few compiles, not one every few frames."""
+    if need <= old:
+        return old
+    return _round_up(max(need, old + old // 4), step, cap)
+
+
 class Scorer:
     """Batched silhouette scoring for fixed cameras and body shape.
 
@@ -254,14 +262,14 @@ class Scorer:
         win_r, grid_r, g_row = span(r_lo, r_hi)
         win_w, grid_w, g_word = span(w_lo, w_hi)
         # per camera (a camera nearer the person needs bigger windows); buckets only grow;
-        # rows in steps of 8 (windows) and 16 (grid), words exactly
+        # rows in steps of 8 (windows) and 16 (grid), words exactly, growing by >= 25 %
         sizes = []
         for c in range(n_cam):
             old = self.sizes[c] if len(self.sizes) == n_cam else Sizes(0, 0, 0, 0)
-            n_win = max(old.win_rows, _round_up(int(win_r[c]), 8, self.h_pad))
-            n_win_words = max(old.win_words, int(win_w[c]))
-            n_rows = max(old.rows, n_win, _round_up(int(grid_r[c]), 16, self.h_pad))
-            n_words = max(old.words, n_win_words, _round_up(int(grid_w[c]), 2, self.w_words))
+            n_win = _grow(old.win_rows, int(win_r[c]), 8, self.h_pad)
+            n_win_words = _grow(old.win_words, int(win_w[c]), 1, self.w_words)
+            n_rows = _grow(old.rows, max(n_win, int(grid_r[c])), 16, self.h_pad)
+            n_words = _grow(old.words, max(n_win_words, int(grid_w[c])), 2, self.w_words)
             sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
         self.sizes = sizes
         n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*sizes))

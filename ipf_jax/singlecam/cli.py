@@ -1,8 +1,7 @@
 """``ipf-jax fix-single RUN_DIR --out DIR``: single-camera post-processing of a tracked run.
 
 Corrects left/right leg swaps (:mod:`.legs`) and steadies the depth (:func:`.placement.steady_depth`)
-into a new run folder; the tracker's own output is kept as it is. Until the command is listed in
-``ipf_jax.cli.COMMAND_MODULES`` it runs as ``python -m ipf_jax.singlecam fix-single ...``.
+into a new run folder; the tracker's own output is kept as it is.
 """
 from __future__ import annotations
 
