@@ -14,7 +14,6 @@ A dataset exposes ``cameras`` (full resolution), ``frames`` (frame numbers), ``f
 """
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -22,7 +21,7 @@ import numpy as np
 
 from .calibration import read_bodytrack_cal, read_json
 from .camera import Camera
-from .errors import IPFError, require
+from .errors import IPFError, load_json, require
 
 _FRAME_RE = re.compile(r"(\d+)\.(bmp|png|jpg|jpeg|tif|tiff)$", re.IGNORECASE)
 
@@ -173,10 +172,7 @@ def open_described(path: Path) -> Dataset:
     from .sources import build_sources
 
     doc_path = path / "dataset.json"
-    try:
-        doc = json.loads(doc_path.read_text())
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable dataset.json ({e})", doc_path) from None
+    doc = load_json(doc_path, "dataset.json")
     require(isinstance(doc, dict) and isinstance(doc.get("cameras"), list) and doc["cameras"],
             "dataset.json needs a non-empty 'cameras' list", doc_path)
     cams, sources = build_sources(path, doc)

@@ -22,3 +22,17 @@ def require(condition: bool, message: str, path: str | Path | None = None) -> No
     """Raise :class:`IPFError` unless ``condition`` holds."""
     if not condition:
         raise IPFError(message, path)
+
+
+def load_json(path: str | Path, what: str = "file", *, missing_hint: str = ""):
+    """The JSON document in ``path``; a missing or unreadable file is an :class:`IPFError` naming
+    ``what`` it should have been (``"shape file"``, ``"marker map"``, ...)."""
+    import json
+
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise IPFError(f"{what} not found{missing_hint}", path) from None
+    except (OSError, ValueError) as e:
+        raise IPFError(f"{what} is not readable JSON ({e})", path) from None

@@ -244,7 +244,7 @@ def test_background_of_another_size_is_an_error(scene, tmp_path):
 
 def test_unreadable_dataset_json(tmp_path):
     (tmp_path / "dataset.json").write_text("{not json")
-    with pytest.raises(IPFError, match="not a readable dataset.json"):
+    with pytest.raises(IPFError, match="dataset.json is not readable JSON"):
         open_dataset(tmp_path)
 
 

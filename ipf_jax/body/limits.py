@@ -7,13 +7,12 @@ paper's tighter ranges). ``root_yaw`` is periodic: it is wrapped, not clipped.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import IPFError, require
+from ..errors import IPFError, load_json, require
 from .model import DOF_INDEX, DOF_NAMES, DOFS, NUM_DOF, PERIODIC_DOFS
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -43,12 +42,7 @@ def load_limits(preset_or_path: str | Path = "default") -> Limits:
     """Load a preset by name (``default``, ``walking``) or a limits JSON file."""
     p = str(preset_or_path)
     path = PRESET_DIR / f"limits_{p}.json" if p in PRESETS else Path(p)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise IPFError(f"limits file not found (presets: {', '.join(PRESETS)})", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable JSON limits file ({e})", path) from None
+    doc = load_json(path, "limits file", missing_hint=f" (presets: {', '.join(PRESETS)})")
     dofs = doc.get("dofs") if isinstance(doc, dict) else None
     require(isinstance(dofs, dict), "limits file needs a 'dofs' object", path)
     missing = [n for n in DOF_NAMES if n not in dofs]

@@ -6,13 +6,12 @@ A shape file is JSON ``{"height_m": H, "params": {name: metres, ...}}`` with eve
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import IPFError, require
+from ..errors import IPFError, load_json, require
 from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -64,14 +63,7 @@ class BodyShape(NamedTuple):
 
 def load_shape(path: str | Path) -> BodyShape:
     """Read a shape file (see module docstring); raises :class:`IPFError` on any problem."""
-    path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise IPFError("shape file not found", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable JSON shape file ({e})", path) from None
-    return shape_from_json(doc, path)
+    return shape_from_json(load_json(path, "shape file"), path)
 
 
 def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:

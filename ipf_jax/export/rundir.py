@@ -14,7 +14,7 @@ import numpy as np
 
 from ..body.model import NUM_DOF, NUM_POINTS, SHAPE_PARAM_NAMES
 from ..body.shape import BodyShape, default_shape
-from ..errors import IPFError, require
+from ..errors import IPFError, load_json, require
 from ..outputs import JOINT_COLUMNS, POSE_COLUMNS
 from ..reference.kinematics import forward_kinematics
 from ..world import AXES, axis_vector, up_rotation
@@ -82,12 +82,7 @@ def _shape_from_json(doc: object, path: Path) -> BodyShape:
 
 
 def _read_meta(path: Path) -> tuple[dict, float, str, BodyShape | None]:
-    try:
-        meta = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise IPFError("file not found", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable JSON file ({e})", path) from None
+    meta = load_json(path, "run.json")
     require(isinstance(meta, dict), "must hold a JSON object", path)
     fps = meta.get("fps")
     require(isinstance(fps, (int, float)) and not isinstance(fps, bool) and np.isfinite(fps)

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..body.model import POINT_NAMES
-from ..errors import IPFError
+from ..errors import IPFError, load_json
 from ..world import AXES, axis_vector
 
 #: Metres per unit for the ``--units`` choices.
@@ -176,10 +176,7 @@ def _run_json(csv_path: Path) -> dict:
     meta_path = csv_path.with_name("run.json")
     if not meta_path.is_file():
         return {}
-    try:
-        meta = json.loads(meta_path.read_text())
-    except (OSError, ValueError) as e:
-        raise IPFError(f"unreadable JSON ({e})", meta_path) from None
+    meta = load_json(meta_path, "run.json")
     if not isinstance(meta, dict):
         raise IPFError("expected a JSON object", meta_path)
     return meta

@@ -12,14 +12,13 @@ Units: TRC ``Units`` header, C3D ``POINT:UNITS``; ``--units`` overrides. Up axis
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..body.model import POINT_NAMES
-from ..errors import IPFError
+from ..errors import IPFError, load_json
 from ..world import AXES
 from .io import UNIT_SCALE, Trajectories, make_trajectories
 
@@ -71,12 +70,7 @@ def read_marker_file(path: str | Path, *, marker_map: str | Path | None = None,
 def load_marker_map(path: str | Path) -> dict:
     """Read a marker map JSON -> ``{role: (marker, ...)}`` with every role a known body point."""
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise IPFError("marker map not found", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"marker map is not readable JSON ({e})", path) from None
+    doc = load_json(path, "marker map")
     roles = doc.get("roles", doc) if isinstance(doc, dict) else None
     if not isinstance(roles, dict) or not roles:
         raise IPFError("marker map must be a JSON object of role -> marker name(s)", path)
