@@ -91,7 +91,10 @@ def main(argv=None) -> int:
 
     # frame times from the run: map each RSS sample onto the frame being tracked then
     per_frame = [r for r in run["per_frame"] if r.get("seconds") is not None]
-    ends = t0 + np.cumsum([r["seconds"] for r in per_frame])
+    # per-frame seconds leave out the bookkeeping between frames (checkpoints, run.json):
+    # stretch them over the whole wall time so each sample maps to the frame then running
+    secs = np.cumsum([r["seconds"] for r in per_frame])
+    ends = t0 + secs * (wall / secs[-1])
     ts = np.array([s[0] for s in samples])
     rss = np.array([s[1] for s in samples])
     frame_at = np.searchsorted(ends, ts)  # index of the frame in progress

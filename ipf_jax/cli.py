@@ -61,7 +61,8 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--init-pose", help="initial pose: poses.csv row file, or bodytrack InitialPose.txt")
     p.add_argument("--floor-range", type=_range, default=None, metavar="LO,HI",
                    help="floor contact constraint (off by default): keep the body's lowest surface "
-                        "point LO..HI m above the floor, e.g. -0.03,0.10 (see ipf_jax.contact)")
+                        "point LO..HI m above the floor, e.g. --floor-range=-0.03,0.10 (with '=': "
+                        "the value starts with '-') (see ipf_jax.contact)")
 
 
 #: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets

@@ -38,6 +38,8 @@ class CsvAppender:
         self._header = ",".join(columns) + "\n"
         self._fh = None
         if keep_rows is None or not self.path.exists():
+            require(not keep_rows, f"cannot resume: the file is missing (the checkpoint has {keep_rows} "
+                    "rows of it)", self.path)
             if not lazy:
                 self._start()
         else:

@@ -35,7 +35,8 @@ def settings_from_args(args, base: Path | None = None) -> dict:
     track = {"budget": args.budget, "resolution": args.resolution, "fps": args.fps, "height_m": args.height,
              "shape_file": str(resolve(args.shape, base)) if args.shape else None,
              "limits": args.limits if args.limits in PRESETS else str(resolve(args.limits, base)),
-             "up_axis": args.up, "seed": args.seed, "chunk": args.chunk, "kernel": args.kernel}
+             "up_axis": args.up, "seed": args.seed, "chunk": args.chunk, "kernel": args.kernel,
+             "floor_range": None if args.floor_range is None else list(args.floor_range)}
     frames = None
     if args.frames is not None:
         sl = args.frames

@@ -32,7 +32,7 @@ OPTION_TYPES = {"top_m": int, "points_per_dof": int, "particles": int, "layers":
 TRACK_TYPES = {"budget": int, "resolution": int, "seed": int, "chunk": int, "kernel": str,
                "limits": "limits", "height_m": float, "up_axis": str, "fps": float,
                "shape_file": "path", "confidence_drop": float, "confidence_patience": int,
-               "origin_shift": bool}
+               "origin_shift": bool, "floor_range": "range"}
 _FRAMES_RE = re.compile(r"^\s*-?\d*\s*:\s*-?\d*\s*(:\s*\d+\s*)?$|^\s*\d+\s*$")
 
 
@@ -56,6 +56,11 @@ def coerce(key: str, value, *, base: Path, where: str, path=None):
     if kind is bool:
         require(isinstance(value, bool), bad + f"true or false (got {value!r})", path)
         return value
+    if kind == "range":
+        require(isinstance(value, (list, tuple)) and len(value) == 2
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+                and value[0] <= value[1], bad + f"[low, high] in metres, low <= high (got {value!r})", path)
+        return [float(v) for v in value]
     if kind == "dofs":
         require(isinstance(value, list) and value and all(isinstance(v, str) for v in value),
                 bad + f"a list of DOF names (got {value!r})", path)
@@ -110,6 +115,8 @@ def track_settings(spec: dict):
     options = dict(spec["options"])
     if "interesting" in options:
         options["interesting"] = tuple(options["interesting"])
+    if track.get("floor_range") is not None:
+        track["floor_range"] = tuple(track["floor_range"])
     init_pose = read_pose_rows(spec["init_pose"])[0] if spec.get("init_pose") else None
     return TrackSettings(filter=spec["filter"], filter_options=options, init_pose=init_pose, **track)
 
