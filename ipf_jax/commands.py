@@ -2,13 +2,12 @@
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .body.model import DOF_NAMES, LIMB_JOINTS, POINT_INDEX
+from .body.model import DOF_NAMES
 from .errors import IPFError, require
 
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 import time
 from functools import partial
@@ -36,7 +35,7 @@ import numpy as np
 
 from .body.model import LIMB_JOINTS, POINT_NAMES
 from .dataset import Dataset
-from .errors import IPFError, require
+from .errors import require
 from .filters import registry
 from .filters.base import Filter
 from .outputs import (JOINT_COLUMNS, CsvAppender, check_writable, read_joints_csv,

@@ -19,7 +19,7 @@ from ipf_jax.body.shape import default_shape
 from ipf_jax.dataset import MemoryDataset
 from ipf_jax.errors import IPFError
 from ipf_jax.filters import apf, registry
-from ipf_jax.filters.base import FilterState, default_noise_rates
+from ipf_jax.filters.base import default_noise_rates
 from ipf_jax.filters.selection import systematic
 from ipf_jax.likelihood import Scorer, make_observation, weights_from_counts
 from ipf_jax.tracker import Tracker, TrackSettings
