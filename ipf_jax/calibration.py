@@ -325,7 +325,7 @@ def read_json(path: str | Path, width: int | None = None, height: int | None = N
 def write_json(cameras: list[Camera], path: str | Path) -> None:
     """Write cameras in the ipf-jax JSON format (metres)."""
     doc = {"format": "ipf-jax-cameras", "version": 1, "units": "m", "cameras": [
-        {"name": c.name, "width": c.width, "height": c.height, "K": c.K.tolist(),
+        {"name": c.name, "width": int(c.width), "height": int(c.height), "K": c.K.tolist(),
          "dist": c.dist.tolist(), "R": c.R.tolist(), "T": c.T.tolist()} for c in cameras]}
     Path(path).write_text(json.dumps(doc, indent=1))
 

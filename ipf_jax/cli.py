@@ -8,21 +8,19 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 from . import __version__
-from .errors import IPFError
+from .errors import IPFError, IPFWarning
 
 
 def _slice(text: str) -> slice:
+    from .frames import parse_frames
+
     try:
-        parts = [int(p) if p.strip() else None for p in text.split(":")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--frames must look like A:B or A:B:S (got {text!r})") from None
-    if len(parts) == 1:
-        return slice(parts[0], parts[0] + 1)
-    if len(parts) > 3:
-        raise argparse.ArgumentTypeError(f"--frames must look like A:B or A:B:S (got {text!r})")
-    return slice(*parts)
+        return parse_frames(text)
+    except IPFError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
 
 
 def _range(text: str) -> tuple[float, float]:
@@ -57,7 +55,10 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--chunk", type=int, default=512, help="particles per compiled call")
     p.add_argument("--kernel", default="scanline", choices=["scanline", "dense"])
-    p.add_argument("--frames", type=_slice, help="Python slice of frame numbers, A:B (B excluded)")
+    p.add_argument("--frames", type=_slice, help="frame numbers A:B (B excluded), A:, A:B:S or A")
+    p.add_argument("--init-budget", default="default", choices=["default", "small"],
+                   help="effort of the automatic initialisation: small searches ~10x fewer "
+                        "configurations (quick looks, tests); default is the full search")
     p.add_argument("--init-pose", help="initial pose: poses.csv row file, or bodytrack InitialPose.txt")
     p.add_argument("--floor-range", type=_range, default=None, metavar="LO,HI",
                    help="floor contact constraint (off by default): keep the body's lowest surface "
@@ -103,6 +104,8 @@ def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
                                  "analysis by Interval Particle Filtering (JAX).")
     ap.add_argument("--version", action="version", version=f"ipf-jax {__version__}")
+    ap.add_argument("--debug", action="store_true",
+                    help="show the full traceback of an internal error (a bug) instead of one line")
     sub = ap.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("demo", help="self-rendered walk: render, track, report error and speed (no downloads)")
@@ -119,9 +122,6 @@ def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     add_tracking_options(p)
     p.add_argument("--resume", action="store_true", help="continue an interrupted run in --out")
     p.add_argument("--checkpoint-every", type=int, default=10)
-    p.add_argument("--init-budget", default="default", choices=["default", "small"],
-                   help="effort of the automatic initialisation: small searches ~10x fewer "
-                        "configurations (quick looks, tests); default is the full search")
     p.add_argument("--overlay", action="store_true", help="save overlay PNGs of the fitted model")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func="track")
@@ -145,10 +145,11 @@ def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     ap = _parser(argv)
     args = ap.parse_args(argv)
-    from . import commands, jax_setup
-
-    jax_setup.configure()
+    warnings.showwarning = _show_warning
     try:
+        from . import commands, jax_setup
+
+        jax_setup.configure()
         if not isinstance(args.func, str):  # commands living in their own modules
             return args.func(args)
         return getattr(commands, args.func)(args)
@@ -160,6 +161,29 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         os._exit(1)
+    except Exception as e:  # a bug: one line (exit 70, EX_SOFTWARE), the traceback with --debug
+        if args.debug:
+            raise
+        print(f"error: internal error in {args.command}: {type(e).__name__}: {_one_line(e)} "
+              "(rerun with --debug for the traceback)", file=sys.stderr)
+        return INTERNAL_ERROR
+
+
+INTERNAL_ERROR = 70  # sysexits.h EX_SOFTWARE
+_default_showwarning = warnings.showwarning
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """IPFWarnings as one ``warning: ...`` line; other warnings as Python shows them."""
+    if issubclass(category, IPFWarning):
+        print(f"warning: {message}", file=sys.stderr)
+    else:
+        _default_showwarning(message, category, filename, lineno, file, line)
+
+
+def _one_line(e: BaseException) -> str:
+    text = " ".join(str(e).split())
+    return text if len(text) <= 300 else text[:297] + "..."
 
 
 if __name__ == "__main__":

@@ -12,17 +12,9 @@ from .errors import IPFError, require
 
 
 def _frames(ds, sl: slice | None) -> list[int]:
-    if sl is None:
-        return list(ds.frames)
-    lo = sl.start if sl.start is not None else min(ds.frames)
-    hi = sl.stop if sl.stop is not None else max(ds.frames) + 1
-    step = sl.step or 1
-    require(step > 0, "--frames step must be positive")
-    wanted = set(range(lo, hi, step))
-    frames = [f for f in ds.frames if f in wanted]
-    require(bool(frames), f"--frames {lo}:{hi} selects none of the dataset's frames "
-            f"({min(ds.frames)}..{max(ds.frames)})")
-    return frames
+    from .frames import select_frames
+
+    return select_frames(ds.frames, sl)
 
 
 def filter_options(args) -> dict:
@@ -126,9 +118,15 @@ INIT_BUDGETS = {
 }
 
 
+def init_settings(args):
+    """``--init-budget`` -> :class:`ipf_jax.initialise.InitSettings`."""
+    from .initialise import InitSettings
+
+    return InitSettings(**(INIT_BUDGETS[getattr(args, "init_budget", "default")] or {}))
+
+
 def track(args) -> int:
     from .dataset import open_dataset
-    from .initialise import InitSettings
     from .tracker import DEFAULT_RESOLUTION, TrackSettings
     from .tracker import track as run_track
 
@@ -144,7 +142,7 @@ def track(args) -> int:
         shape_file=args.shape, limits=args.limits, up_axis=args.up, seed=args.seed, chunk=args.chunk,
         kernel=args.kernel, checkpoint_every=args.checkpoint_every, init_pose=init_pose,
         floor_range=floor_range(args),
-        init=InitSettings(**(INIT_BUDGETS[getattr(args, "init_budget", "default")] or {})))
+        init=init_settings(args))
     res = run_track(ds, args.out, settings, frames=frames, resume=args.resume,
                     progress=not args.quiet, overlay=args.overlay)
     run = res.run

@@ -150,8 +150,8 @@ def _initial_pose(dataset: Dataset, settings: TrackSettings, first: int) -> tupl
             "comparison on a frame where the subject is seen (--frames)", dataset.path)
     if settings.init_pose is not None:
         return settings, 1
-    q, w, height, n = probe.initialise(first, obs, small, None)
-    return settings._replace(init_pose=q[int(np.nanargmax(w))], height_m=height), n
+    q, w, shape, n = probe.initialise(first, obs, small, None)
+    return settings._replace(init_pose=q[int(np.nanargmax(w))], height_m=shape.height_m), n
 
 
 def _distances(ref: Reference, frame: int, best: np.ndarray, mean: np.ndarray) -> tuple[float, float]:
@@ -467,7 +467,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the comparison; prints the table. IPFError propagates to the main CLI (exit 2)."""
-    from .commands import _frames, _init_pose, filter_options, floor_range
+    from .commands import _frames, _init_pose, filter_options, floor_range, init_settings
     from .dataset import open_dataset
     from .tracker import DEFAULT_RESOLUTION
 
@@ -481,7 +481,8 @@ def run(args: argparse.Namespace) -> int:
     shared = {k: getattr(args, k) for k in ("fps", "limits", "seed", "chunk", "kernel")}
     settings = TrackSettings(filter_options=filter_options(args), height_m=height, init_pose=init_pose,
                              resolution=args.resolution or DEFAULT_RESOLUTION, shape_file=args.shape,
-                             up_axis=args.up, floor_range=floor_range(args), **shared)
+                             up_axis=args.up, floor_range=floor_range(args),
+                             init=init_settings(args), **shared)
     res = compare(ds, args.out, names, args.budget, settings=settings, frames=frames, references=refs,
                   peer_seconds=args.peer_seconds, repeat=args.repeat, progress=not args.quiet)
     print(markdown_table(res.rows, list(COLUMNS)))

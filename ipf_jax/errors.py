@@ -18,6 +18,11 @@ class IPFError(Exception):
         super().__init__(f"{self.path}: {message}" if self.path else message)
 
 
+class IPFWarning(UserWarning):
+    """Something the user should know (a partial frame range, a bridged gap); the CLI prints it
+    as one ``warning: <message>`` line."""
+
+
 def require(condition: bool, message: str, path: str | Path | None = None) -> None:
     """Raise :class:`IPFError` unless ``condition`` holds."""
     if not condition:

@@ -152,9 +152,9 @@ def compose(views: list[np.ndarray], *, even: bool = False) -> np.ndarray:
         out = np.hstack(views)
     else:
         half = (len(views) + 1) // 2
-        top, bottom = np.hstack(views[:half]), np.hstack(views[half:])
-        bottom = np.pad(bottom, ((0, 0), (0, top.shape[1] - bottom.shape[1]), (0, 0)))
-        out = np.vstack([top, bottom])
+        rows = [np.hstack(views[:half]), np.hstack(views[half:])]
+        width = max(r.shape[1] for r in rows)  # either row may be the wider (portrait + landscape)
+        out = np.vstack([np.pad(r, ((0, 0), (0, width - r.shape[1]), (0, 0))) for r in rows])
     if even:
         out = np.pad(out, ((0, out.shape[0] % 2), (0, out.shape[1] % 2), (0, 0)))
     return out

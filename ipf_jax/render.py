@@ -48,16 +48,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _pick_frames(frames: np.ndarray, text: str | None) -> np.ndarray:
-    from .sources import parse_frames, select_frames
+    from .frames import parse_frames, select_frames
 
     if not text:
         return frames
-    if ":" not in text and text.strip().lstrip("-").isdigit():  # one frame
-        text = f"{text}:{int(text) + 1}"
-    chosen = select_frames(frames.tolist(), parse_frames(text, None, "--frames"))
-    require(len(chosen) > 0, f"--frames {text} selects none of the run's frames "
-            f"({frames.min()}..{frames.max()})")
-    return np.array(chosen)
+    return np.array(select_frames(frames.tolist(), parse_frames(text)))
 
 
 def pick_cameras(cameras, text: str | None, option: str = "--cameras") -> list[int]:

@@ -31,6 +31,7 @@ import numpy as np
 from .calibration import read_calibration
 from .camera import Camera
 from .errors import IPFError, require
+from .frames import parse_frames, select_frames
 from .paths import shared_data_dir
 from .silhouette import (CLOSE_PX, OPEN_PX, THRESHOLD, foreground, largest_components,
                          median_background, read_color)
@@ -171,30 +172,6 @@ def resolve(root: Path, value, what: str, doc_path: Path) -> Path:
     return p if p.is_absolute() else root / p
 
 
-def parse_frames(value, doc_path: Path | None, what: str = "'frames'") -> slice:
-    """``"A:B"`` or ``"A:B:S"`` (B excluded, as ``--frames``; A or B may be left out) or
-    ``[A, B]``; ``what`` names the setting in the error."""
-    if isinstance(value, list) and len(value) == 2 and all(isinstance(v, int) for v in value):
-        return slice(value[0], value[1])
-    if isinstance(value, str):
-        try:
-            parts = [int(p) if p.strip() else None for p in value.split(":")]
-        except ValueError:
-            parts = []
-        if 2 <= len(parts) <= 3 and (len(parts) < 3 or parts[2] is None or parts[2] > 0):
-            return slice(*parts)
-    forms = '"A:B" or "A:B:S" (B excluded)' + ("" if what.startswith("--") else " or [A, B]")
-    raise IPFError(f"{what} must be {forms}, got {value!r}", doc_path)
-
-
-def select_frames(frames: list[int], sl: slice) -> list[int]:
-    lo = sl.start if sl.start is not None else -np.inf
-    hi = sl.stop if sl.stop is not None else np.inf
-    step = sl.step or 1
-    first = next((f for f in frames if f >= lo), None)
-    return [f for f in frames if lo <= f < hi and (f - (first or 0)) % step == 0]
-
-
 def _number(value, what: str, doc_path: Path, *, lo: float, hi: float, integer: bool = False):
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) \
         and lo <= value <= hi and (not integer or float(value).is_integer())
@@ -244,7 +221,7 @@ def _median_of(path: Path, k: int, sl: slice | None, prefix: str):
     def compute() -> np.ndarray:
         reader = ImageSequence(path, prefix, mode="color") if path.is_dir() else VideoReader(path)
         frames = list(reader.frame_numbers)
-        chosen = select_frames(frames, sl) if sl is not None else frames
+        chosen = select_frames(frames, sl, where="background 'frames'", path=path)
         require(bool(chosen), "the background frame range selects no frame", path)
         start, stop = frames.index(chosen[0]), frames.index(chosen[-1]) + 1
         return median_background(reader, k, start=start, stop=stop)
@@ -269,7 +246,8 @@ def _background(entry: dict, root: Path, own: Path, where: str, doc_path: Path, 
         return lambda: read_color(src)
     k = _number(bg.get("median", MEDIAN_FRAMES), f"{where} background median", doc_path, lo=1,
                 hi=1001, integer=True)
-    sl = parse_frames(bg["frames"], doc_path) if "frames" in bg else None
+    sl = parse_frames(bg["frames"], f"{where} background 'frames'", doc_path) if "frames" in bg \
+        else None
     return _median_of(src, k, sl, prefix)
 
 
@@ -363,11 +341,10 @@ def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
             roi = roi_mask(entry["roi"], *src.size, f"camera {k}", doc_path)
             src.seg = src.seg._replace(roi=roi)
     if "frames" in doc:
-        sl = parse_frames(doc["frames"], doc_path)
+        sl = parse_frames(doc["frames"], "'frames'", doc_path)
         for k, src in enumerate(sources, start=1):
-            src.frames = select_frames(src.frames, sl)
-            require(bool(src.frames), f"'frames' {doc['frames']} selects none of camera {k}'s "
-                    "frames", doc_path)
+            src.frames = select_frames(src.frames, sl, where=f"'frames' (camera {k})",
+                                       path=doc_path)
     cams = _place_cameras(cams, sources, entries, doc, doc_path)
     return cams, sources
 

@@ -98,7 +98,7 @@ def test_automatic_initialisation_runs_once_and_seeds_every_filter(walk, tmp_pat
             return original(self, frame, obs, small, height)
         searched.append(frame)
         q = np.stack([walk["q"][0], walk["q"][1]])
-        return q, np.array([2.0, 5.0]), 1.70, 1234
+        return q, np.array([2.0, 5.0]), default_shape(1.70), 1234  # what Tracker.initialise returns
 
     monkeypatch.setattr(Tracker, "initialise", search)
     res = compare(ds, tmp_path, ["sir", "apf"], 200, progress=False, settings=TrackSettings(chunk=256))
@@ -144,7 +144,7 @@ def test_cli_compare_writes_the_table(on_disk, capsys):
     (["--filters", "apf", "--particles", "300"], "cannot weigh 300 particles"),
     (["--truth", "no_such_truth.csv"], "file not found"),
     (["--peer", "init.csv"], "no BodyShapeParameters.txt"),
-    (["--frames", "50:60"], "selects none of the dataset's frames"),
+    (["--frames", "50:60"], "selects none of the frames"),
     (["--repeat", "0"], "--repeat must be >= 1"),
 ])
 def test_cli_user_mistakes_are_one_line_errors(on_disk, capsys, monkeypatch, extra, problem):

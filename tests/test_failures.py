@@ -211,7 +211,7 @@ CASES = {
     "height_out_of_range": (
         lambda ds: ["--height", "3.5"], "--height 3.5", r"outside 0\.5\.\.2\.6 m", None),
     "frames_select_nothing": (
-        lambda ds: ["--frames", "100:200"], "--frames 100:200", r"selects none of the dataset's frames",
+        lambda ds: ["--frames", "100:200"], "--frames 100:200", r"selects none of the frames",
         None),
     "unknown_filter_name": (
         lambda ds: ["--filter", "kalman", "--"], "--filter kalman",

@@ -119,7 +119,7 @@ def test_track_overlay_writer(scene, tmp_path):
 
 
 @pytest.mark.parametrize("extra,message", [
-    (["--frames", "10:20"], "selects none of the run's frames"),
+    (["--frames", "10:20"], "selects none of the frames"),
     (["--cameras", "Camera9"], "no camera 'Camera9'"),
     (["--size", "8"], "--size must be 32..4096"),
     (["--dataset", "/nonexistent/folder"], "dataset folder not found"),

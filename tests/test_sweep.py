@@ -88,7 +88,7 @@ def test_cells_are_the_product_of_value_lists_with_stable_ids(scene):
     ('[[filter]]\nname = "ipf"\nbudget = [10]\n', "cannot hold one grid"),
     ('[[filter]]\nname = "ukf"\n', "name must be one of ipf, apf, sir"),
     ('[[filter]]\nname = "sir"\nresolution = 8\n', "resolution must be 16..2048"),
-    ('[[filter]]\nname = "sir"\nframes = "0-4"\n', "frames must be a string like"),
+    ('[[filter]]\nname = "sir"\nframes = "0-4"\n', "frames must be "),
     ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "nowhere"\n', "dataset folder not found"),
     ('[[filter]]\nname = "sir"\n[eval]\nalign = "affine"\n', "align must be none or rigid"),
     ('[[filter]\nname = "sir"\n', "not a readable TOML file"),

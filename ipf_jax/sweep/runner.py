@@ -74,7 +74,8 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
     from ..dataset import open_dataset
     from ..evaluation import evaluate_files, summary_doc, write_outputs
     from ..tracker import track
-    from .spec import parse_frames, track_settings
+    from ..frames import parse_frames
+    from .spec import track_settings
 
     work_dir = Path(work_dir)
     t0 = time.perf_counter()
@@ -86,7 +87,7 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
         if spec.get("truth") and not Path(spec["truth"]).is_file():  # before hours of tracking
             raise IPFError("truth file not found", spec["truth"])
         ds = open_dataset(spec["dataset"])
-        frames = _frames(ds, parse_frames(spec.get("frames")))
+        frames = _frames(ds, (parse_frames(spec["frames"]) if spec.get("frames") else None))
         res = track(ds, work_dir, track_settings(spec), frames=frames, progress=False)
         record["result"], record["timing"] = _run_summary(res.run, work_dir / "joints.csv")
         (work_dir / CHECKPOINT).unlink(missing_ok=True)  # only useful to resume a track; this one is done

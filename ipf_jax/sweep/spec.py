@@ -21,6 +21,7 @@ from typing import NamedTuple
 
 from ..body.limits import PRESETS
 from ..errors import IPFError, require
+from ..frames import parse_frames
 
 SCHEMA = 1  # bump when the meaning of a spec changes, so old cells are not reused
 
@@ -33,7 +34,6 @@ TRACK_TYPES = {"budget": int, "resolution": int, "seed": int, "chunk": int, "ker
                "limits": "limits", "height_m": float, "up_axis": str, "fps": float,
                "shape_file": "path", "confidence_drop": float, "confidence_patience": int,
                "origin_shift": bool, "floor_range": "range"}
-_FRAMES_RE = re.compile(r"^\s*-?\d*\s*:\s*-?\d*\s*(:\s*\d+\s*)?$|^\s*\d+\s*$")
 
 
 class Cell(NamedTuple):
@@ -80,17 +80,10 @@ def resolve(value: str, base: Path) -> Path:
 
 
 def check_frames(value, *, where: str, path=None) -> str:
-    require(isinstance(value, str) and bool(_FRAMES_RE.match(value)),
-            f"{where}: frames must be a string like \"0:12\" or \"0:32:2\" (got {value!r})", path)
+    require(isinstance(value, str), f"{where}: frames must be a string like \"0:12\" or "
+            f"\"0:32:2\" (got {value!r})", path)
+    parse_frames(value, f"{where}: frames", path)
     return value.replace(" ", "")
-
-
-def parse_frames(text: str | None) -> slice | None:
-    """``"A:B[:S]"`` (or ``"A"``) -> slice over frame numbers; None -> every frame."""
-    if text is None:
-        return None
-    parts = [int(p) if p else None for p in text.split(":")]
-    return slice(parts[0], parts[0] + 1) if len(parts) == 1 else slice(*parts)
 
 
 def cell_id(spec: dict) -> str:
