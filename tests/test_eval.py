@@ -169,3 +169,32 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, case, message):
     assert main(["eval", str(est), str(truth), "--out", str(tmp_path / "ev")] + args) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and message in err and "\n" not in err
+
+
+def test_constant_offset_and_offset_free_error_by_hand(vicon_vs_video):
+    """Left knee 5 cm off on every frame: all offset, nothing left. Right knee 10/20/30/20 cm high:
+    an offset of 20 cm straight up, and 5 cm left on average (10, 0, 10, 0 cm) once removed."""
+    estimate, truth = vicon_vs_video
+    ev, _, _ = evaluate_files(estimate, truth)
+    sp = ev.split
+    assert sp.names == ("left_knee", "right_knee")
+    assert sp.offset[0] == pytest.approx([0.03, 0.04, 0.0], abs=TOL)
+    assert sp.offset[1] == pytest.approx([0.0, 0.0, 0.2], abs=TOL)
+    assert sp.offset_m == pytest.approx([0.05, 0.2], abs=TOL)
+    assert sp.offset_free_m == pytest.approx([0.0, 0.05], abs=TOL)
+    from ipf_jax.evaluation.metrics import systematic_doc
+
+    doc = systematic_doc(ev)
+    assert doc["mpjpe_offset_free_m"] == pytest.approx(0.025, abs=1e-6)
+    assert doc["mean_offset_m"] == pytest.approx(0.125, abs=1e-6)
+    assert doc["mean_leg_offset_m"] == pytest.approx(0.125, abs=1e-6)
+
+
+def test_lost_frames_and_recovery_count():
+    from ipf_jax.evaluation.metrics import loss_summary
+
+    e = np.array([0.05, 0.25, 0.30, 0.15, 0.08, 0.21, 0.09, 0.5])
+    doc = loss_summary(e)
+    assert doc["lost_frames"] == 4 and doc["longest_lost_run"] == 2
+    assert doc["recoveries_frames"] == [3, 1, None]  # 0.25 -> 0.08 three frames on; 0.5 never
+    assert doc["worst5_mean_m"] == pytest.approx((0.5 + 0.3 + 0.25 + 0.21 + 0.15) / 5)

@@ -8,6 +8,16 @@ share; or the caller's list. Per-joint errors are reported for every shared name
 A frame is scored when every scored joint is finite in the estimate and in the interpolated
 reference (missing tracker frames are nan rows); frames outside the reference's time range are
 left out and counted.
+
+**Systematic and random error** (how gait-lab validations report a marker-less system): per joint,
+the *constant offset* is the mean error vector over the scored frames (a template body whose hips
+sit 8 cm low, say) and the *offset-free error* is the mean distance once that vector is removed
+(what no constant correction can fix: jitter, lag, wrong frames). ``mpjpe_offset_free_m`` averages
+the latter over the scored joints and frames, ``mean_offset_m`` the offsets' lengths.
+
+**Lost and recovered frames**: a frame is *lost* when its mean error over the scored joints is
+above :data:`LOST_M` and *recovered* when it is back under :data:`RECOVERED_M`
+(:func:`loss_summary`).
 """
 from __future__ import annotations
 
@@ -22,6 +32,59 @@ from ..outputs import JointsTable, read_joints_csv
 from .align import apply_rigid, resample, rigid_fit
 
 ALIGN_MODES = ("none", "rigid")
+LOST_M = 0.200  # a frame whose mean scored-joint error is above this is lost...
+RECOVERED_M = 0.100  # ...and it is recovered once back under this
+LEG_JOINTS = tuple(j for j in LIMB_JOINTS if j.endswith(("hip", "knee", "ankle")))
+
+
+class JointSplit(NamedTuple):
+    """Per scored joint: the constant offset and what is left (metres).
+
+    offset : (S, 3) mean error vector;  offset_m : (S,) its length;
+    offset_free_m : (S,) mean distance after removing the offset;  mpjpe_m : (S,) mean distance.
+    """
+
+    names: tuple[str, ...]
+    offset: np.ndarray
+    offset_m: np.ndarray
+    offset_free_m: np.ndarray
+    mpjpe_m: np.ndarray
+
+
+def split_offsets(diff: np.ndarray, names: tuple[str, ...]) -> JointSplit:
+    """diff : (F, S, 3) estimate - truth over F scored frames -> :class:`JointSplit`."""
+    offset = diff.mean(0)  # (S, 3)
+    return JointSplit(tuple(names), offset, np.linalg.norm(offset, axis=-1),
+                      np.linalg.norm(diff - offset, axis=-1).mean(0),
+                      np.linalg.norm(diff, axis=-1).mean(0))
+
+
+def loss_summary(frame_error: np.ndarray, *, lost_m: float = LOST_M,
+                 recovered_m: float = RECOVERED_M) -> dict:
+    """frame_error : (F,) mean error per scored frame, in time order -> lost/recovered counts.
+
+    ``longest_lost_run``: most consecutive lost frames; ``recoveries``: for each entry into loss,
+    the frames until the error is back under ``recovered_m`` (None when it never is).
+    """
+    e = np.asarray(frame_error, float)
+    lost = e > lost_m
+    runs, run, recoveries = [], 0, []
+    i = 0
+    while i < len(e):
+        if lost[i]:
+            j = i
+            while j < len(e) and lost[j]:
+                j += 1
+            runs.append(j - i)
+            k = next((k for k in range(i, len(e)) if e[k] < recovered_m), None)
+            recoveries.append(None if k is None else int(k - i))
+            i = j
+        else:
+            i += 1
+    worst = np.sort(e)[::-1][:5]
+    return {"lost_frames": int(lost.sum()), "longest_lost_run": int(max(runs, default=0)),
+            "recoveries_frames": recoveries, "worst5_mean_m": round(float(worst.mean()), 6)
+            if len(worst) else None, "lost_m": lost_m, "recovered_m": recovered_m}
 
 
 class Evaluation(NamedTuple):
@@ -40,6 +103,7 @@ class Evaluation(NamedTuple):
     per_joint_m: dict
     rms_axis_m: dict
     align: dict
+    split: JointSplit  # constant offset and offset-free error of each scored joint
 
 
 def choose_joints(estimate_names, truth_names, joints=None, *, path=None) -> tuple[tuple, tuple]:
@@ -101,7 +165,8 @@ def evaluate(estimate: JointsTable, truth: JointsTable, *, joints=None, align: s
         names=names, scored=scored, frame=np.asarray(estimate.frame), time_s=np.asarray(estimate.time_s),
         estimate=est, truth=ref, errors=errors, scored_frames=scored_frames, inside=inside,
         mpjpe_m=float(np.linalg.norm(scored_diff, axis=-1).mean()), per_joint_m=per_joint,
-        rms_axis_m=dict(zip("xyz", map(float, rms))), align=info)
+        rms_axis_m=dict(zip("xyz", map(float, rms))), align=info,
+        split=split_offsets(scored_diff, scored))
 
 
 def evaluate_files(estimate_path: str | Path, truth_path: str | Path, *, joints=None,
@@ -113,10 +178,38 @@ def evaluate_files(estimate_path: str | Path, truth_path: str | Path, *, joints=
                      truth_path=truth_path), est, ref)
 
 
+def frame_errors(ev: Evaluation) -> np.ndarray:
+    """(F,) mean error over the scored joints of each scored frame, in time order."""
+    s_idx = [ev.names.index(n) for n in ev.scored]
+    return ev.errors[ev.scored_frames][:, s_idx].mean(1)
+
+
+def systematic_doc(ev: Evaluation) -> dict:
+    """``eval.json`` -> ``systematic``: offsets and offset-free errors (see module doc)."""
+    sp = ev.split
+    legs = [k for k, n in enumerate(sp.names) if n in LEG_JOINTS]
+    r = lambda v: round(float(v), 6)  # noqa: E731
+    diff_free = np.stack([ev.estimate[ev.scored_frames][:, ev.names.index(n)]
+                          - ev.truth[ev.scored_frames][:, ev.names.index(n)] - sp.offset[k]
+                          for k, n in enumerate(sp.names)], 1)  # (F, S, 3)
+    return {
+        "mpjpe_offset_free_m": r(np.linalg.norm(diff_free, axis=-1).mean()),
+        "mean_offset_m": r(sp.offset_m.mean()),
+        "mean_leg_offset_m": r(sp.offset_m[legs].mean()) if legs else None,
+        "per_joint": {n: {"offset_xyz_m": [r(v) for v in sp.offset[k]], "offset_m": r(sp.offset_m[k]),
+                          "offset_free_m": r(sp.offset_free_m[k]), "mpjpe_m": r(sp.mpjpe_m[k])}
+                      for k, n in enumerate(sp.names)},
+        "note": "offset = mean error vector of a joint over the scored frames; offset-free = mean "
+                "distance once it is removed",
+    }
+
+
 def summary_doc(ev: Evaluation) -> dict:
     """The ``eval.json`` document (metres; see docs/evaluation.md)."""
     return {
         "mpjpe_m": round(ev.mpjpe_m, 6),
+        "systematic": systematic_doc(ev),
+        "loss": loss_summary(frame_errors(ev)),
         "per_joint_m": {k: None if v is None else round(v, 6) for k, v in ev.per_joint_m.items()},
         "rms_axis_m": {k: round(v, 6) for k, v in ev.rms_axis_m.items()},
         "n_frames": int(ev.scored_frames.sum()),
