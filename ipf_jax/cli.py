@@ -110,10 +110,13 @@ def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="self-rendered walk: render, track, report error and speed (no downloads)")
     p.add_argument("--out", default="ipf-jax-demo", help="output folder (default ./ipf-jax-demo)")
-    p.add_argument("--frames", type=int, default=24, help="frames to track (default 24)")
-    p.add_argument("--cameras", type=int, default=3)
+    p.add_argument("--num-frames", type=int, default=24, help="how many frames to render and track "
+                   "(default 24)")
+    p.add_argument("--cameras", type=int, default=3, help="how many virtual cameras, 1..8 (default 3)")
     p.add_argument("--top-m", type=int, default=None, help="IPF M (default 81)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="random seed of the tracker (default 0)")
+    p.add_argument("--init-budget", default="default", choices=["default", "small"],
+                   help="effort of the automatic initialisation (small: ~10x cheaper)")
     p.set_defaults(func="demo")
 
     p = sub.add_parser("track", help="track a dataset: joints.csv, poses.csv, run.json")

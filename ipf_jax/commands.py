@@ -222,5 +222,5 @@ def score(args) -> int:
 def demo(args) -> int:
     from .demo import run_demo
 
-    return run_demo(Path(args.out), n_frames=args.frames, n_cameras=args.cameras, top_m=args.top_m,
-                    seed=args.seed)
+    return run_demo(Path(args.out), n_frames=args.num_frames, n_cameras=args.cameras, top_m=args.top_m,
+                    seed=args.seed, init=init_settings(args))

@@ -38,10 +38,11 @@ def write_dataset(root: Path, cameras, masks: np.ndarray) -> Path:
 
 
 def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | None = None,
-             seed: int = 0) -> int:
+             seed: int = 0, init=None) -> int:
     from .errors import require
+    from .initialise import InitSettings
 
-    require(2 <= n_frames <= 400, f"--frames must be 2..400 (got {n_frames})")
+    require(2 <= n_frames <= 400, f"--num-frames must be 2..400 (got {n_frames})")
     require(1 <= n_cameras <= 8, f"--cameras must be 1..8 (got {n_cameras})")
     out = check_writable(out)
     shape = default_shape(DEMO_HEIGHT_M)
@@ -60,7 +61,8 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
         "ground_truth.csv: joints.csv convention, metres, +z up.\n")
     opts = {} if top_m is None else {"top_m": top_m}
     ds = open_dataset(data)
-    res = track(ds, out / "run", TrackSettings(filter_options=opts, seed=seed, fps=DEMO_FPS))
+    res = track(ds, out / "run", TrackSettings(filter_options=opts, seed=seed, fps=DEMO_FPS,
+                                               init=init or InitSettings()))
     err = np.linalg.norm(res.joints - truth, axis=-1) * 1000  # (T, J) mm
     limb = [POINT_NAMES.index(j) for j in LIMB_JOINTS]
     run = res.run
