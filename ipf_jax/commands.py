@@ -76,20 +76,15 @@ def floor_range(args) -> tuple[float, float] | None:
 
 def read_pose_rows(path: str | Path) -> np.ndarray:
     """(N, D) poses from a CSV with one named column per DOF (poses.csv convention)."""
+    from .outputs import read_table
+
     path = Path(path)
-    try:
-        with open(path) as fh:
-            header = [h.strip() for h in fh.readline().strip().split(",")]
-        data = np.genfromtxt(path, delimiter=",", skip_header=1, ndmin=2)
-    except FileNotFoundError:
-        raise IPFError("poses file not found", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable CSV ({e})", path) from None
+    header, data = read_table(path, "poses file")
     missing = [d for d in DOF_NAMES if d not in header]
     require(not missing, f"missing DOF columns: {', '.join(missing[:5])}{'...' if len(missing) > 5 else ''}", path)
-    require(data.size > 0 and data.shape[1] == len(header), "no data rows or ragged rows", path)
     q = data[:, [header.index(d) for d in DOF_NAMES]]
     require(bool(np.all(np.isfinite(q))), "poses contain NaN or non-numeric values", path)
+    require(bool(np.all(np.abs(q) <= 1e4)), "poses hold values beyond 1e4 (metres or radians)", path)
     return q
 
 

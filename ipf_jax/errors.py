@@ -14,8 +14,8 @@ class IPFError(Exception):
 
     def __init__(self, message: str, path: str | Path | None = None):
         self.path = None if path is None else str(path)
-        self.message = message
-        super().__init__(f"{self.path}: {message}" if self.path else message)
+        self.message = " ".join(str(message).split())  # one line, whatever a library said
+        super().__init__(f"{self.path}: {self.message}" if self.path else self.message)
 
 
 class IPFWarning(UserWarning):

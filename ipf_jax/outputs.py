@@ -101,6 +101,9 @@ def check_writable(out_dir: Path) -> Path:
     return out_dir
 
 
+MAX_COORD_M = 1e5  # metres: larger coordinates are not positions in a capture volume
+
+
 class JointsTable(NamedTuple):
     """A ``joints.csv``-convention table: frame (T,), time_s (T,), points (T, J, 3), names (J,)."""
 
@@ -110,19 +113,50 @@ class JointsTable(NamedTuple):
     names: tuple[str, ...]
 
 
+def read_table(path: str | Path, what: str = "CSV") -> tuple[list[str], np.ndarray]:
+    """(header, (T, K) float64 values) of a comma-separated numeric table with one header line.
+
+    Every cell must be a number (``nan`` and ``inf`` parse; callers decide what they accept); a
+    row with another number of cells than the header, a non-numeric cell or a file without rows
+    is an :class:`IPFError` naming the file and the line.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise IPFError("file not found", path) from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise IPFError(f"not a readable {what} ({e})", path) from None
+    lines = [(n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip()]
+    require(bool(lines), f"empty {what}", path)
+    header = [h.strip() for h in lines[0][1].split(",")]
+    rows = []
+    for n, line in lines[1:]:
+        cells = line.split(",")
+        require(len(cells) == len(header), f"line {n} has {len(cells)} values, the header "
+                f"{len(header)}", path)
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise IPFError(f"line {n}: {bad.strip()[:20]!r} is not a number", path) from None
+    require(bool(rows), f"no data rows in the {what}", path)
+    return header, np.array(rows, np.float64)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def read_joints_csv(path: str | Path) -> JointsTable:
     """Read any CSV in the ``joints.csv`` convention (``frame,time_s,<point>_x/_y/_z``, extras ignored)."""
     path = Path(path)
-    try:
-        with open(path) as fh:
-            header = fh.readline().strip().split(",")
-        data = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
-    except FileNotFoundError:
-        raise IPFError("file not found", path) from None
-    except (OSError, ValueError, UnicodeDecodeError) as e:
-        raise IPFError(f"not a readable CSV ({e})", path) from None
+    header, data = read_table(path, "joints CSV")
     require("frame" in header and "time_s" in header, "needs 'frame' and 'time_s' columns", path)
-    require(data.size > 0 and data.shape[1] == len(header), "no data rows or ragged rows", path)
     names = []
     for col in header:
         if col.endswith("_x"):
@@ -131,5 +165,13 @@ def read_joints_csv(path: str | Path) -> JointsTable:
                 names.append(name)
     require(names, "no <point>_x,_y,_z column triples", path)
     idx = {c: i for i, c in enumerate(header)}
+    frame, time_s = data[:, idx["frame"]], data[:, idx["time_s"]]
+    require(bool(np.all(np.isfinite(frame)) and np.all(frame == np.round(frame))
+                 and np.all(np.abs(frame) < 2**31)), "'frame' must hold whole frame numbers", path)
+    require(bool(np.all(np.isfinite(time_s))), "'time_s' must hold finite times in seconds", path)
     pts = np.stack([data[:, [idx[f"{n}_x"], idx[f"{n}_y"], idx[f"{n}_z"]]] for n in names], axis=1)
-    return JointsTable(data[:, idx["frame"]].astype(int), data[:, idx["time_s"]], pts, tuple(names))
+    # nan is a missing value (a frame the tracker missed); inf or astronomic values are not metres
+    bad = ~np.isnan(pts) & ~(np.abs(pts) <= MAX_COORD_M)
+    require(not bad.any(), f"{int(bad.sum())} coordinates are infinite or beyond {MAX_COORD_M:g} m "
+            "(coordinates are metres; missing values are nan)", path)
+    return JointsTable(frame.astype(np.int64), time_s, pts, tuple(names))

@@ -69,7 +69,38 @@ def _png_complete(data: bytes) -> bool:
     return False
 
 
+MAX_SIDE = 32768  # pixels: larger images are refused before decoding (a corrupt header could
+MAX_PIXELS = 1 << 27  # otherwise make OpenCV allocate gigabytes); 8K video is 2**25 pixels
+
+
+def _declared_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) that a PNG, BMP or JPEG header declares, or None (other formats, or cut)."""
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
+        return struct.unpack_from(">II", data, 16)
+    if data[:2] == b"BM" and len(data) >= 26:
+        dib = struct.unpack_from("<I", data, 14)[0]
+        if dib == 12:
+            return struct.unpack_from("<HH", data, 18)
+        if len(data) >= 26:
+            w, h = struct.unpack_from("<ii", data, 18)
+            return abs(w), abs(h)
+    if data[:3] == b"\xff\xd8\xff":
+        pos = 2
+        while pos + 9 <= len(data) and data[pos] == 0xFF:
+            marker, length = data[pos + 1], struct.unpack_from(">H", data, pos + 2)[0]
+            if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # start of frame
+                h, w = struct.unpack_from(">HH", data, pos + 5)
+                return w, h
+            pos += 2 + length
+    return None
+
+
 def _check_complete(data: bytes, path: Path) -> None:
+    size = _declared_size(data)
+    if size is not None:
+        w, h = size
+        require(0 < w <= MAX_SIDE and 0 < h <= MAX_SIDE and w * h <= MAX_PIXELS,
+                f"image header declares {w}x{h} pixels: not a usable image (corrupt header?)", path)
     if data[:2] == b"BM":
         need = _bmp_needed(data)
         require(len(data) >= need,

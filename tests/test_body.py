@@ -42,7 +42,7 @@ def test_default_shape_and_height_scaling():
     (lambda d: d["params"].pop("thigh"), "misses parameters: thigh"),
     (lambda d: d["params"].update(thigh_r0=-0.1), "radii must be positive"),
     (lambda d: d["params"].update(thigh="long"), "must be numbers"),
-    (lambda d: d["params"].update(wings=1.0), "unknown shape parameters: wings"),
+    (lambda d: d["params"].update(wings=1.0), "unknown shape parameters: 'wings'"),
 ])
 def test_bad_shape_files_name_the_problem(tmp_path, edit, message):
     doc = default_shape().to_json()

@@ -48,7 +48,7 @@ def load_limits(preset_or_path: str | Path = "default") -> Limits:
     missing = [n for n in DOF_NAMES if n not in dofs]
     require(not missing, f"limits file misses DOFs: {', '.join(missing)}", path)
     unknown = sorted(set(dofs) - set(DOF_NAMES))
-    require(not unknown, f"unknown DOFs in limits file: {', '.join(unknown)}", path)
+    require(not unknown, f"unknown DOFs in limits file: {', '.join(map(repr, unknown))}", path)
     lower = np.empty(NUM_DOF)
     upper = np.empty(NUM_DOF)
     for d in DOFS:

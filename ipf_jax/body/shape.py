@@ -74,7 +74,7 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     missing = [n for n in SHAPE_PARAM_NAMES if n not in params]
     require(not missing, f"shape file misses parameters: {', '.join(missing)}", path)
     unknown = sorted(set(params) - set(SHAPE_PARAM_NAMES))
-    require(not unknown, f"unknown shape parameters: {', '.join(unknown)}", path)
+    require(not unknown, f"unknown shape parameters: {', '.join(map(repr, unknown))}", path)
     try:
         values = np.array([float(params[n]) for n in SHAPE_PARAM_NAMES])
         height = float(doc.get("height_m", 1.75))

@@ -15,7 +15,7 @@ import numpy as np
 from ..body.model import NUM_DOF, NUM_POINTS, SHAPE_PARAM_NAMES
 from ..body.shape import BodyShape, default_shape
 from ..errors import IPFError, load_json, require
-from ..outputs import JOINT_COLUMNS, POSE_COLUMNS
+from ..outputs import JOINT_COLUMNS, POSE_COLUMNS, read_table
 from ..reference.kinematics import forward_kinematics
 from ..world import AXES, axis_vector, up_rotation
 
@@ -47,22 +47,12 @@ class Run(NamedTuple):
 
 def _read_table(path: Path, header: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A CSV with exactly ``header`` (``frame,time_s,...``) -> frames (T,), time_s (T,), values."""
-    try:
-        with path.open() as f:
-            found = f.readline().strip().split(",")
-            data = np.loadtxt(f, delimiter=",", ndmin=2, dtype=float)
-    except FileNotFoundError:
-        raise IPFError("file not found", path) from None
-    except (OSError, ValueError) as e:
-        raise IPFError(f"not a readable numeric CSV ({e})", path) from None
+    found, data = read_table(path, path.name)
     if found != header:
         wrong = next((f"column {i + 1} is {h!r}, expected {e!r}"
                       for i, (h, e) in enumerate(zip(found, header)) if h != e),
                      f"{len(found)} columns, expected {len(header)}")
         raise IPFError(f"unexpected header: {wrong}", path)
-    require(data.shape[0] > 0, "no frames", path)
-    require(data.shape[1] == len(header),
-            f"rows have {data.shape[1]} values, expected {len(header)}", path)
     frames = data[:, 0]
     require(bool(np.all(np.isfinite(frames))) and bool(np.all(frames == np.round(frames))),
             "the frame column must hold integers on every row", path)
