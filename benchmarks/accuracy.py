@@ -27,8 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ipf_jax.evaluation import evaluate_files
-from ipf_jax.evaluation.metrics import frame_errors, loss_summary, systematic_doc
+from ipf_jax.analysis.evaluation import evaluate_files
+from ipf_jax.analysis.evaluation.metrics import (
+    frame_errors,
+    loss_summary,
+    systematic_doc,
+)
 from ipf_jax.paths import shared_data_dir
 
 WALKS = ("rajagopal_walk", "rajagopal_longlegs", "rajagopal_heavy", "rajagopal_walk_uu", "sub4_walk")
@@ -56,7 +60,7 @@ def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str |
         if tree:
             env["PYTHONPATH"] = tree + os.pathsep + env.get("PYTHONPATH", "")
         t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "ipf_jax.cli", "track", str(root / name),
+        proc = subprocess.run([sys.executable, "-m", "ipf_jax.cli.main", "track", str(root / name),
                                "--out", str(run_dir), "--quiet", *track_args], env=env,
                               capture_output=True, text=True, cwd="/")
         if proc.returncode != 0:

@@ -4,7 +4,7 @@
 
 For each scoring width (4 cameras, the exact scanline likelihood):
 
-* ``agreement``: on the fixed bench scene (6561 poses around the person, see ``ipf_jax.bench``),
+* ``agreement``: on the fixed bench scene (6561 poses around the person, see ``ipf_jax.profiling``),
   how well the weights at that width rank the poses like the weights at the native 640x480: the
   Spearman rank correlation, and where the native-resolution best pose ranks at this width;
 * ``apf``: bodytrack's budget (4000 particles x 5 layers), frame 1 of sequenceB_2 started from
@@ -18,8 +18,15 @@ from pathlib import Path
 import numpy as np
 
 from ipf_jax import jax_setup
-from ipf_jax.bench import DATASET, PEER_POSES, bench_track, load_scene, measure_step, rank_agreement
 from ipf_jax.paths import shared_data_dir
+from ipf_jax.profiling import (
+    DATASET,
+    PEER_POSES,
+    bench_track,
+    load_scene,
+    measure_step,
+    rank_agreement,
+)
 
 
 def main():

@@ -35,7 +35,7 @@ def rss_mb() -> float:
 def treadmill(n_frames: int, fps: float, shape) -> np.ndarray:
     """Walking on a treadmill (speed 0: the legs and arms swing, the pelvis stays above one floor
     point), so any number of frames stays in view."""
-    from ipf_jax import synthetic as syn
+    from ipf_jax.viz import synthetic as syn
 
     return syn.procedural_walk(n_frames, fps, shape=shape, speed=0.0, heading_deg=30.0,
                                start=(0.6, 0.0))
@@ -54,10 +54,10 @@ def main(argv=None) -> int:
     from ipf_jax import jax_setup
 
     jax_setup.configure()
-    from ipf_jax import synthetic as syn
     from ipf_jax.body.shape import default_shape
-    from ipf_jax.dataset import MemoryDataset
-    from ipf_jax.tracker import TrackSettings, track
+    from ipf_jax.data.dataset import MemoryDataset
+    from ipf_jax.tracking.tracker import TrackSettings, track
+    from ipf_jax.viz import synthetic as syn
 
     fps, n = 20.0, args.frames
     shape = default_shape(1.72)

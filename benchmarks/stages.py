@@ -2,8 +2,8 @@
 
     python benchmarks/stages.py [--width 320] [--cameras 1] [--particles 6561] [--repeats 7]
 
-Times, on the fixed bench scene (see ``ipf_jax.bench``), one chunk through each stage of
-``ipf_jax.likelihood.Scorer`` (geometry for all cameras; then, per camera, the row intervals, the
+Times, on the fixed bench scene (see ``ipf_jax.profiling``), one chunk through each stage of
+``ipf_jax.likelihood.scorer.Scorer`` (geometry for all cameras; then, per camera, the row intervals, the
 words/popcount, and the dense kernel's intervals), with ``block_until_ready`` and the median of
 repeats, in wall and process-CPU seconds per particle. The sum of the stages is the ceiling of the
 whole measure step at that chunk size; the rest is host work (window plan, transfers, weights).
@@ -16,9 +16,9 @@ import jax
 import numpy as np
 
 from ipf_jax import jax_setup
-from ipf_jax import likelihood as lk
-from ipf_jax.bench import DATASET, load_scene
+from ipf_jax.likelihood import scorer as lk
 from ipf_jax.paths import shared_data_dir
+from ipf_jax.profiling import DATASET, load_scene
 
 
 def timed(fn, repeats):

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ipf_jax import jax_setup
-from ipf_jax.bench import DATASET, bench_measure, load_scene, machine, measure_step
 from ipf_jax.paths import shared_data_dir
+from ipf_jax.profiling import DATASET, bench_measure, load_scene, machine, measure_step
 
 
 def interleaved(scene, sizes: dict, rounds: int) -> dict:

@@ -3,12 +3,12 @@ import json
 import shutil
 
 import pytest
+from test_sweep import read_summary, write_scene
 
 from ipf_jax.body import default_shape
-from ipf_jax.cli import main
+from ipf_jax.cli.main import main
 from ipf_jax.errors import IPFError
 from ipf_jax.sweep import backends, read_manifest
-from test_sweep import read_summary, write_scene
 
 # two frames (initialisation from the given pose + one filter step): the batch command has the
 # track command's options, which cannot switch re-initialisation off for a tiny filter

@@ -4,8 +4,16 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax.body import DOF_NAMES, NUM_DOF, POINT_NAMES, SEGMENT_NAMES, default_shape, load_limits, load_shape
-from ipf_jax.body import model
+from ipf_jax.body import (
+    DOF_NAMES,
+    NUM_DOF,
+    POINT_NAMES,
+    SEGMENT_NAMES,
+    default_shape,
+    load_limits,
+    load_shape,
+    model,
+)
 from ipf_jax.body.limits import PRESET_DIR
 from ipf_jax.errors import IPFError
 

@@ -6,19 +6,36 @@ import itertools
 import numpy as np
 import pytest
 
+from ipf_jax.analysis.bodytrack import (
+    PART_NAMES,
+    POINT_NAMES,
+    SHARED_JOINTS,
+    agreement,
+    axis_samples,
+    bodytrack_geometry,
+    bodytrack_points,
+    bodytrack_points_batch,
+    cone_outlines,
+    euler_zxy,
+    fg_fraction,
+    fg_hits,
+    fit_our_pose,
+    mean_joint_distance,
+    peer_joints,
+    read_body_shape,
+    read_fg_mask,
+    read_overlay,
+    read_pose,
+    render_overlay,
+)
+from ipf_jax.analysis.bodytrack.overlay import draw_outlines
 from ipf_jax.body import default_shape, load_limits
 from ipf_jax.body.model import DOF_INDEX, POINT_INDEX
-from ipf_jax.bodytrack import (PART_NAMES, POINT_NAMES, SHARED_JOINTS, agreement, axis_samples,
-                               bodytrack_geometry, bodytrack_points, bodytrack_points_batch,
-                               cone_outlines, euler_zxy, fg_fraction, fg_hits, fit_our_pose,
-                               mean_joint_distance, peer_joints, read_body_shape, read_fg_mask,
-                               read_overlay, read_pose, render_overlay)
-from ipf_jax.bodytrack.overlay import draw_outlines
-from ipf_jax.calibration import read_bodytrack_cal
+from ipf_jax.data.calibration import read_bodytrack_cal
 from ipf_jax.errors import IPFError
+from ipf_jax.geometry.world import up_rotation
 from ipf_jax.reference.camera import project_points
 from ipf_jax.reference.kinematics import forward_kinematics
-from ipf_jax.world import up_rotation
 
 PEER = "bodytrack_poses_sequenceB_2_4cams_2frames_4000p_5layers_serial.txt"
 LENGTH_TOL = 1e-9  # metres: cone lengths are exact up to float64 rounding

@@ -3,20 +3,29 @@ from __future__ import annotations
 
 import re
 import shutil
+
 import cv2
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ipf_jax import camera as jcam
-from ipf_jax.calibration import (read_bodytrack_cal, read_bodytrack_dir, read_calibration,
-                                 read_json, read_opencv, read_opencv_dir, read_toml, rodrigues,
-                                 write_json)
+from ipf_jax.data.calibration import (
+    read_bodytrack_cal,
+    read_bodytrack_dir,
+    read_calibration,
+    read_json,
+    read_opencv,
+    read_opencv_dir,
+    read_toml,
+    rodrigues,
+    write_json,
+)
 from ipf_jax.errors import IPFError
+from ipf_jax.geometry import camera as jcam
+from ipf_jax.geometry.world import detect_up_axis
 from ipf_jax.reference import PIXEL_ATOL
 from ipf_jax.reference import camera as ref
-from ipf_jax.world import detect_up_axis
 
 BODYTRACK_CENTRES = np.array([[2.761, 2.547, 2.539], [-2.121, 2.446, 2.578],
                               [-2.033, -1.872, 2.528], [2.854, -1.892, 2.535]])
@@ -166,7 +175,7 @@ def test_up_axis_sports2d(sports2d_toml):
 
 def test_up_axis_single_ceiling_camera_uses_the_silhouette(shared_data):
     """One bodytrack ceiling camera (mounted rolled): only the person's long axis says which way is up."""
-    from ipf_jax.silhouette import read_mask
+    from ipf_jax.data.silhouette import read_mask
 
     root = shared_data("mocap_walk_render/rajagopal_walk_clean_1cam")
     cams = read_calibration(root / "CALIB")

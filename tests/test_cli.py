@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from ipf_jax.cli import MODULE_COMMANDS, _parser
+from ipf_jax.cli.main import MODULE_COMMANDS, _parser
 
 
 @pytest.mark.parametrize("name", list(MODULE_COMMANDS))
@@ -21,14 +21,14 @@ def test_each_listed_command_is_registered_by_its_module(name):
 
 
 def test_help_does_not_import_the_heavy_modules():
-    code = ("import sys; from ipf_jax.cli import _parser; _parser(['--help']); "
+    code = ("import sys; from ipf_jax.cli.main import _parser; _parser(['--help']); "
             "print(','.join(m for m in ('jax', 'scipy', 'matplotlib') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
 
 
 def test_floor_range_reaches_track_and_batch_settings(tmp_path):
-    from ipf_jax.commands import floor_range
+    from ipf_jax.cli.commands import floor_range
     from ipf_jax.sweep.batch import batch_cells, settings_from_args
     from ipf_jax.sweep.spec import track_settings
 
@@ -46,8 +46,8 @@ def test_floor_range_reaches_track_and_batch_settings(tmp_path):
 
 
 def test_resume_with_a_missing_csv_is_refused(tmp_path):
+    from ipf_jax.data.runfiles import CsvAppender
     from ipf_jax.errors import IPFError
-    from ipf_jax.outputs import CsvAppender
 
     with pytest.raises(IPFError, match="cannot resume: the file is missing"):
         CsvAppender(tmp_path / "poses.csv", ["frame", "time_s", "a"], keep_rows=5, lazy=True)

@@ -12,17 +12,24 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax import synthetic as syn
+from ipf_jax.analysis.compare import (
+    Reference,
+    StepLog,
+    compare,
+    fastest,
+    load_peer,
+    load_truth,
+    parse_filters,
+)
 from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
 from ipf_jax.body.shape import default_shape
-from ipf_jax.cli import main
-from ipf_jax.compare import (Reference, StepLog, compare, fastest, load_peer, load_truth,
-                             parse_filters)
-from ipf_jax.dataset import MemoryDataset, open_dataset
-from ipf_jax.demo import _write_truth, write_dataset
+from ipf_jax.cli.demo import _write_truth, write_dataset
+from ipf_jax.cli.main import main
+from ipf_jax.data.dataset import MemoryDataset, open_dataset
+from ipf_jax.data.runfiles import POSE_COLUMNS, read_joints_csv
 from ipf_jax.errors import IPFError
-from ipf_jax.outputs import POSE_COLUMNS, read_joints_csv
-from ipf_jax.tracker import Tracker, TrackSettings
+from ipf_jax.tracking.tracker import Tracker, TrackSettings
+from ipf_jax.viz import synthetic as syn
 
 FPS = 20.0
 HEIGHT = 1.72

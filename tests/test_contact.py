@@ -1,11 +1,11 @@
-"""Floor contact (ipf_jax.contact): particles are moved along up into the allowed height range."""
+"""Floor contact (ipf_jax.tracking.contact): particles are moved along up into the allowed height range."""
 import numpy as np
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body.limits import load_limits
 from ipf_jax.body.shape import default_shape
-from ipf_jax.contact import FloorContact, lowest_heights
-from ipf_jax.world import up_rotation
+from ipf_jax.geometry.world import up_rotation
+from ipf_jax.tracking.contact import FloorContact, lowest_heights
+from ipf_jax.viz import synthetic as syn
 
 
 def test_floating_and_sunken_bodies_are_brought_back_and_others_untouched():

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from ipf_jax.cli import main
+from ipf_jax.cli.main import main
 
 REPO = Path(__file__).resolve().parent.parent
 DOC_FILES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -112,7 +112,7 @@ def small(argv: list[str]) -> list[str]:
     cmd = argv[1]
     extra = list(SMALL.get(cmd, []))
     if cmd in ("track", "compare") and "--frames" not in argv:
-        from ipf_jax.dataset import open_dataset
+        from ipf_jax.data.dataset import open_dataset
 
         frames = open_dataset(argv[2]).frames[: (2 if cmd == "compare" else FIRST_FRAMES)]
         extra += ["--frames", f"{frames[0]}:{frames[-1] + 1}"]

@@ -4,11 +4,11 @@ import json
 import numpy as np
 import pytest
 
+from ipf_jax.analysis.evaluation import evaluate_files
+from ipf_jax.analysis.evaluation.align import resample, rigid_fit
 from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
-from ipf_jax.cli import main
-from ipf_jax.evaluation import evaluate_files
-from ipf_jax.evaluation.align import resample, rigid_fit
-from ipf_jax.outputs import read_joints_csv
+from ipf_jax.cli.main import main
+from ipf_jax.data.runfiles import read_joints_csv
 
 TOL = 1e-12  # metres: files hold 9 decimals, the arithmetic is exact to rounding
 
@@ -182,7 +182,7 @@ def test_constant_offset_and_offset_free_error_by_hand(vicon_vs_video):
     assert sp.offset[1] == pytest.approx([0.0, 0.0, 0.2], abs=TOL)
     assert sp.offset_m == pytest.approx([0.05, 0.2], abs=TOL)
     assert sp.offset_free_m == pytest.approx([0.0, 0.05], abs=TOL)
-    from ipf_jax.evaluation.metrics import systematic_doc
+    from ipf_jax.analysis.evaluation.metrics import systematic_doc
 
     doc = systematic_doc(ev)
     assert doc["mpjpe_offset_free_m"] == pytest.approx(0.025, abs=1e-6)
@@ -191,7 +191,7 @@ def test_constant_offset_and_offset_free_error_by_hand(vicon_vs_video):
 
 
 def test_lost_frames_and_recovery_count():
-    from ipf_jax.evaluation.metrics import loss_summary
+    from ipf_jax.analysis.evaluation.metrics import loss_summary
 
     e = np.array([0.05, 0.25, 0.30, 0.15, 0.08, 0.21, 0.09, 0.5])
     doc = loss_summary(e)

@@ -7,15 +7,25 @@ import ezc3d
 import numpy as np
 import pytest
 
+from ipf_jax.analysis.export import (
+    bvh_positions,
+    export_bvh,
+    export_c3d,
+    export_csv,
+    export_trc,
+    file_rotation,
+    read_bvh,
+    read_run,
+    sample_rate,
+    to_file_frame,
+    write_run_dir,
+)
+from ipf_jax.analysis.export.cli import main
+from ipf_jax.analysis.gait.io import load as load_trajectories
 from ipf_jax.body import POINT_NAMES, default_shape, load_limits
 from ipf_jax.body.model import NUM_DOF
 from ipf_jax.errors import IPFError
-from ipf_jax.export import (bvh_positions, export_bvh, export_c3d, export_csv, export_trc,
-                            file_rotation, read_bvh, read_run, sample_rate, to_file_frame,
-                            write_run_dir)
-from ipf_jax.export.cli import main
-from ipf_jax.gait.io import load as load_trajectories
-from ipf_jax.world import AXES, axis_vector
+from ipf_jax.geometry.world import AXES, axis_vector
 
 BVH_TOL_M = 1e-3  # the brief: BVH forward kinematics within 1 mm of joints.csv
 CSV_ROUNDING_M = 0.6e-6  # joints.csv and the text exports keep 6 decimals of metres

@@ -11,19 +11,23 @@ import json
 import jax
 import numpy as np
 import pytest
+from ipf_jax.likelihood.scorer import (
+    Scorer,
+    make_observation,
+    weights_from_counts,
+)
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body.limits import load_limits
 from ipf_jax.body.model import DOF_INDEX, LIMB_JOINTS, NUM_DOF, POINT_NAMES
 from ipf_jax.body.shape import default_shape
-from ipf_jax.dataset import MemoryDataset
+from ipf_jax.data.dataset import MemoryDataset
 from ipf_jax.errors import IPFError
 from ipf_jax.filters import apf, registry
 from ipf_jax.filters.base import default_noise_rates
 from ipf_jax.filters.selection import systematic
-from ipf_jax.likelihood import Scorer, make_observation, weights_from_counts
-from ipf_jax.tracker import Tracker, TrackSettings
-from ipf_jax.world import up_rotation
+from ipf_jax.geometry.world import up_rotation
+from ipf_jax.tracking.tracker import Tracker, TrackSettings
+from ipf_jax.viz import synthetic as syn
 
 FPS = 20.0
 HEIGHT = 1.72

@@ -21,14 +21,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ipf_jax.body.limits import load_limits, limits_to_json
+from ipf_jax.body.limits import limits_to_json, load_limits
 from ipf_jax.body.model import DOF_NAMES, NUM_DOF, POINT_NAMES
 from ipf_jax.body.shape import default_shape, load_shape
-from ipf_jax.cli import main
-from ipf_jax.commands import read_pose_rows
+from ipf_jax.cli.commands import read_pose_rows
+from ipf_jax.cli.main import main
+from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, read_joints_csv
+from ipf_jax.data.silhouette import read_mask
 from ipf_jax.errors import IPFError
-from ipf_jax.outputs import JOINT_COLUMNS, POSE_COLUMNS, read_joints_csv
-from ipf_jax.silhouette import read_mask
 
 _EXPLORE = int(os.environ.get("HYPOTHESIS_EXPLORE", "0"))
 FUZZ = settings(max_examples=_EXPLORE or 40, deadline=None, derandomize=not _EXPLORE,

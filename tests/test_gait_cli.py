@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax.gait import cli
+from ipf_jax.analysis.gait import cli
 
 
 def _parse(argv):

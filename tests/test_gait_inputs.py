@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
+from ipf_jax.analysis.gait import analyse, load
+from ipf_jax.analysis.gait.io import write_joints_csv
+from ipf_jax.analysis.gait.markers import read_trc
+from ipf_jax.analysis.gait.synthetic import synthetic_walk
 from ipf_jax.errors import IPFError
-from ipf_jax.gait import analyse, load
-from ipf_jax.gait.io import write_joints_csv
-from ipf_jax.gait.markers import read_trc
-from ipf_jax.gait.synthetic import synthetic_walk
 
 #: synthetic marker names for the roles (what a lab would call them)
 MARKERS = {"sacrum": "SACR", "left_heel": "LHEE", "right_heel": "RHEE", "left_toe": "LTOE",

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipf_jax.gait import analyse, load
-from ipf_jax.gait.parameters import SIDES
+from ipf_jax.analysis.gait import analyse, load
+from ipf_jax.analysis.gait.parameters import SIDES
 
 FP_THRESHOLD_N = 20.0
 HS_TOL_S = 0.020   # 2 frames at 100 Hz

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipf_jax.gait import analyse, load
-from ipf_jax.gait.io import write_joints_csv
-from ipf_jax.gait.synthetic import synthetic_walk
+from ipf_jax.analysis.gait import analyse, load
+from ipf_jax.analysis.gait.io import write_joints_csv
+from ipf_jax.analysis.gait.synthetic import synthetic_walk
 
 
 def _mean(res, name, side="all"):

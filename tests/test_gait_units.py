@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipf_jax.gait.angles import joint_angles, sagittal_angle
-from ipf_jax.gait.events import detect, refine_peak
-from ipf_jax.gait.filtering import effective_cutoff, fill_short_gaps, lowpass
-from ipf_jax.gait.parameters import Step, summarise
+from ipf_jax.analysis.gait.angles import joint_angles, sagittal_angle
+from ipf_jax.analysis.gait.events import detect, refine_peak
+from ipf_jax.analysis.gait.filtering import effective_cutoff, fill_short_gaps, lowpass
+from ipf_jax.analysis.gait.parameters import Step, summarise
 
 
 def test_refine_peak_finds_the_vertex_of_a_sampled_parabola():

@@ -5,10 +5,10 @@ import pytest
 
 from ipf_jax.body import DOF_NAMES, default_shape, load_limits
 from ipf_jax.body.model import POINT_INDEX
-from ipf_jax.kinematics import forward_kinematics
+from ipf_jax.geometry.kinematics import forward_kinematics
+from ipf_jax.geometry.world import up_rotation
 from ipf_jax.reference import GEOMETRY_ATOL_M
 from ipf_jax.reference import kinematics as ref
-from ipf_jax.world import up_rotation
 
 SHAPE = default_shape()
 P = POINT_INDEX
@@ -85,7 +85,7 @@ def test_internal_rotation_turns_toes_medially_on_both_sides():
 
 @pytest.mark.parametrize("up", ["+z", "-z", "+y", "-x"])
 def test_up_axis_stands_the_body_up(up):
-    from ipf_jax.world import axis_vector
+    from ipf_jax.geometry.world import axis_vector
     pts = fk(np.zeros(31), up).points
     a = axis_vector(up)
     assert pts[P["head"]] @ a - pts[P["left_ankle"]] @ a > 1.3

@@ -2,12 +2,16 @@
 import chex
 import numpy as np
 import pytest
+from ipf_jax.likelihood.scorer import (
+    Scorer,
+    make_observation,
+    weights_from_counts,
+)
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body import default_shape
-from ipf_jax.likelihood import Scorer, make_observation, weights_from_counts
+from ipf_jax.geometry.world import up_rotation
 from ipf_jax.reference import likelihood as ref
-from ipf_jax.world import up_rotation
+from ipf_jax.viz import synthetic as syn
 
 SHAPE = default_shape()
 U = up_rotation("+z")
@@ -115,7 +119,7 @@ def test_no_retrace_across_frames(scene):
     """One compile per shape: after the first frame, no stage is traced again."""
     import jax
 
-    from ipf_jax import likelihood
+    from ipf_jax.likelihood import scorer as likelihood
 
     cams, q, masks, particles = scene
     scorer = Scorer(cams, SHAPE, U, chunk=16)

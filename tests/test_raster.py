@@ -4,10 +4,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from ipf_jax.likelihood.raster import (
+    WORD,
+    Roi,
+    dense_counts,
+    dense_interval_stage,
+    interval_stage,
+    pack_rows,
+    quant_scale,
+    scanline_counts,
+    segment_extent,
+    word_stage,
+)
 
-from ipf_jax.capsule2d import capsule_outline
-from ipf_jax.raster import (WORD, Roi, dense_counts, dense_interval_stage, interval_stage, pack_rows,
-                            quant_scale, scanline_counts, segment_extent, word_stage)
+from ipf_jax.geometry.capsule2d import capsule_outline
 from ipf_jax.reference.raster import counts_from_caps, model_mask
 
 

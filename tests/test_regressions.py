@@ -16,11 +16,11 @@ import cv2
 import numpy as np
 import pytest
 
-from ipf_jax import overlay
-from ipf_jax.calibration import read_bodytrack_cal, write_json
-from ipf_jax.cli import main
+from ipf_jax.cli.main import main
+from ipf_jax.data.calibration import read_bodytrack_cal, write_json
+from ipf_jax.data.frames import parse_frames, select_frames
 from ipf_jax.errors import IPFWarning
-from ipf_jax.frames import parse_frames, select_frames
+from ipf_jax.viz import overlay
 
 WALK = "mocap_walk_render/rajagopal_walk_clean_4cam"
 
@@ -115,7 +115,7 @@ def test_track_warns_once_on_a_partial_frame_range(shared_data, tmp_path, capsys
 
 
 def test_an_unexpected_exception_is_one_line_and_exit_70(monkeypatch, tmp_path, capsys):
-    from ipf_jax import commands
+    from ipf_jax.cli import commands
 
     def broken(args):
         raise ZeroDivisionError("a bug\nover two lines")

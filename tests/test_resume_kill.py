@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body import default_shape
-from ipf_jax.cli import main
-from ipf_jax.demo import write_dataset
-from ipf_jax.outputs import POSE_COLUMNS
+from ipf_jax.cli.demo import write_dataset
+from ipf_jax.cli.main import main
+from ipf_jax.data.runfiles import POSE_COLUMNS
+from ipf_jax.viz import synthetic as syn
 
 SHAPE = default_shape(1.75)
 N_FRAMES = 24
@@ -57,7 +57,7 @@ def data_rows(path: Path) -> int:
 
 def kill_mid_run(argv: list[str], joints: Path) -> int:
     """Start ``ipf-jax argv`` and SIGKILL it once ``joints`` has KILL_AFTER_ROWS rows."""
-    proc = subprocess.Popen([sys.executable, "-m", "ipf_jax.cli", *argv],
+    proc = subprocess.Popen([sys.executable, "-m", "ipf_jax.cli.main", *argv],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + TIMEOUT_S
     try:

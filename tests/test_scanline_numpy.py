@@ -2,15 +2,14 @@
 import cv2
 import numpy as np
 import pytest
-
-from ipf_jax import synthetic as syn
-from ipf_jax.body import default_shape
-from ipf_jax.reference import PIXEL_ATOL
-from ipf_jax.reference import likelihood as ref
-from ipf_jax.reference import scanline
-from ipf_jax.reference.raster import counts_from_caps
-from ipf_jax.world import up_rotation
 from test_raster import far_caps, random_caps
+
+from ipf_jax.body import default_shape
+from ipf_jax.geometry.world import up_rotation
+from ipf_jax.reference import PIXEL_ATOL, scanline
+from ipf_jax.reference import likelihood as ref
+from ipf_jax.reference.raster import counts_from_caps
+from ipf_jax.viz import synthetic as syn
 
 
 @pytest.mark.parametrize("height, width", [(60, 80), (45, 100), (33, 37)])

@@ -14,7 +14,7 @@ sys.path.insert(0, sys.argv[1])
 import jax
 import numpy as np
 from ipf_jax import jax_setup
-from ipf_jax.likelihood import Scorer, make_observation
+from ipf_jax.likelihood.scorer import Scorer, make_observation
 from test_likelihood import SHAPE, U, make_scene
 
 jax_setup.configure()

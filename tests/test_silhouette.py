@@ -8,12 +8,19 @@ import cv2
 import numpy as np
 import pytest
 
-from ipf_jax.calibration import read_bodytrack_cal, read_opencv_dir
+from ipf_jax.data.calibration import read_bodytrack_cal, read_opencv_dir
+from ipf_jax.data.silhouette import (
+    foreground,
+    largest_components,
+    median_background,
+    read_color,
+    read_gray,
+    read_mask,
+    resize_mask,
+)
+from ipf_jax.data.video import VideoReader
 from ipf_jax.errors import IPFError
 from ipf_jax.reference import camera as ref
-from ipf_jax.silhouette import (foreground, largest_components, median_background, read_color,
-                                read_gray, read_mask, resize_mask)
-from ipf_jax.video import VideoReader
 
 UU_CAMS = [1, 2, 3, 4]
 

@@ -7,14 +7,19 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax import singlecam as sc
+from ipf_jax.analysis import singlecam as sc
 from ipf_jax.body.model import DOF_INDEX, POINT_INDEX
 from ipf_jax.body.shape import default_shape
+from ipf_jax.data.rundir import joints_from_poses, read_run, write_run_dir
 from ipf_jax.errors import IPFError
-from ipf_jax.export.rundir import joints_from_poses, read_run, write_run_dir
-from ipf_jax.posing import gait_pose, place_on_floor
-from ipf_jax.synthetic import joints_of, look_at_camera, procedural_walk, render_masks
-from ipf_jax.world import up_rotation
+from ipf_jax.geometry.posing import gait_pose, place_on_floor
+from ipf_jax.geometry.world import up_rotation
+from ipf_jax.viz.synthetic import (
+    joints_of,
+    look_at_camera,
+    procedural_walk,
+    render_masks,
+)
 
 UP = np.array([0.0, 0.0, 1.0])
 SHAPE = default_shape(1.70)
@@ -239,7 +244,7 @@ def test_fix_single_refuses_to_overwrite_the_run(walk, tmp_path, capsys):
 
 
 def test_fix_single_takes_the_camera_from_the_dataset(walk_masks, tmp_path, capsys):
-    from ipf_jax.demo import write_dataset
+    from ipf_jax.cli.demo import write_dataset
 
     q, masks = walk_masks
     data = write_dataset(tmp_path / "data", [level_camera()], masks[:, None])

@@ -1,4 +1,4 @@
-"""dataset.json datasets (ipf_jax.sources): masks, images + background, video + median background,
+"""dataset.json datasets (ipf_jax.data.sources): masks, images + background, video + median background,
 region of interest, frame ranges, camera placement options, and one clear error per mistake."""
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
-from ipf_jax.calibration import write_json
-from ipf_jax.dataset import open_bodytrack, open_dataset
+from ipf_jax.data.calibration import write_json
+from ipf_jax.data.dataset import open_bodytrack, open_dataset
+from ipf_jax.data.silhouette import foreground
 from ipf_jax.errors import IPFError
-from ipf_jax.silhouette import foreground
-from ipf_jax.synthetic import look_at_camera
+from ipf_jax.viz.synthetic import look_at_camera
 
 W, H, T = 96, 64, 21
 
@@ -250,8 +250,8 @@ def test_unreadable_dataset_json(tmp_path):
 
 def test_sports2d_video_segments_the_walker(shared_data, tmp_path):
     """The real single-camera clip: median background from 5 nearby frames, ROI below the box."""
-    from ipf_jax.singlecam import person_extent, stand_distance
-    from ipf_jax.world import axis_vector
+    from ipf_jax.geometry.placement import person_extent, stand_distance
+    from ipf_jax.geometry.world import axis_vector
 
     clip = shared_data("sports2d_walk")
     doc = {"calibration": str(clip / "Calib_demo.toml"), "up_axis": "+z", "frames": "100:103",

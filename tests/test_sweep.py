@@ -14,14 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body import default_shape
-from ipf_jax.cli import main
-from ipf_jax.demo import write_dataset
+from ipf_jax.cli.demo import write_dataset
+from ipf_jax.cli.main import main
+from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender
 from ipf_jax.errors import IPFError
-from ipf_jax.outputs import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender
 from ipf_jax.sweep import backends, execute, load_config
 from ipf_jax.sweep.summary import TIMING_COLUMNS, pareto_front
+from ipf_jax.viz import synthetic as syn
 
 N_FRAMES = 5
 # fixed settings of every test cell: known up axis and height, small chunk, no re-initialisation
@@ -165,12 +165,12 @@ def test_failing_cell_is_recorded_and_the_sweep_goes_on(scene, tmp_path, capsys)
 
 
 def test_a_bug_in_a_cell_is_recorded_with_its_traceback(scene, tmp_path, monkeypatch):
-    import ipf_jax.tracker
+    import ipf_jax.tracking.tracker
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("deliberate")
 
-    monkeypatch.setattr(ipf_jax.tracker, "track", broken)
+    monkeypatch.setattr(ipf_jax.tracking.tracker, "track", broken)
     cell = load_config(write_config(scene, '[[filter]]\nname = "sir"\n')).cells[0]
     record = execute(cell.spec, tmp_path / "run")
     assert record["status"] == "failed" and record["result"] is None
@@ -182,7 +182,7 @@ def test_killed_sweep_resumes_without_recomputing_finished_cells(scene, tmp_path
                        shared="seed = [0, 1]\n")
     n_cells = len(load_config(cfg).cells)
     killed = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "ipf_jax.cli", "sweep", str(cfg), "--out", str(killed),
+    proc = subprocess.Popen([sys.executable, "-m", "ipf_jax.cli.main", "sweep", str(cfg), "--out", str(killed),
                              "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=os.environ.copy())
     deadline = time.monotonic() + 300
     try:

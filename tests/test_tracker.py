@@ -4,12 +4,12 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax import synthetic as syn
 from ipf_jax.body import default_shape
-from ipf_jax.dataset import MemoryDataset
-from ipf_jax.initialise import InitSettings
-from ipf_jax.outputs import JOINT_COLUMNS, POSE_COLUMNS
-from ipf_jax.tracker import TrackSettings, track
+from ipf_jax.data.dataset import MemoryDataset
+from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS
+from ipf_jax.tracking.initialise import InitSettings
+from ipf_jax.tracking.tracker import TrackSettings, track
+from ipf_jax.viz import synthetic as syn
 
 SHAPE = default_shape(1.75)
 FAST_INIT = InitSettings(headings=8, position_steps=0, heights_m=(1.75,), modes=1, keep=8,

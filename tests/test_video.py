@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
+from ipf_jax.data.video import ImageSequence, VideoReader
 from ipf_jax.errors import IPFError
-from ipf_jax.video import ImageSequence, VideoReader
 
 
 def decode_all(path):

@@ -1,13 +1,13 @@
 """The articulated body: 19 key points, 17 capsule segments, 31 DOF, 4 kinematic chains on a trunk.
 
 Everything here is static topology (Python data), read at trace time by the JAX forward kinematics
-(:mod:`ipf_jax.kinematics`) and, independently, by the NumPy reference
+(:mod:`ipf_jax.geometry.kinematics`) and, independently, by the NumPy reference
 (:mod:`ipf_jax.reference.kinematics`).
 
 Body frame convention (every local frame, at zero angles): ``x`` forward (anterior), ``y`` to the
 subject's left, ``z`` up. The root frame is the pelvis, located at the ``sacrum`` point. The world
 frame is the calibration's; its up axis is mapped onto the body's ``z`` by a fixed rotation ``U``
-(see :func:`ipf_jax.camera.up_rotation`), so root yaw is always a turn about the world's up axis.
+(see :func:`ipf_jax.geometry.camera.up_rotation`), so root yaw is always a turn about the world's up axis.
 
 Angles are radians inside the library (files and CLI show degrees where they say so); positive
 directions are anatomical and the same for both sides: flexion, abduction (away from the midline),

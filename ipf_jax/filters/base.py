@@ -84,7 +84,7 @@ def default_noise_rates() -> np.ndarray:
     marker walk, fitted with our model: trunk and arms 1-3 deg per 50 ms, hips 5, knees 8-9 rms):
     about 1.5x those rates. Every child particle gets this noise, so it also bounds how precise
     the heaviest particle can be; twice these rates tracked measurably worse. The root's
-    translation is mostly explained by the body origin positioning (:mod:`ipf_jax.origin`), so its
+    translation is mostly explained by the body origin positioning (:mod:`ipf_jax.tracking.origin`), so its
     noise covers only the residual.
     Multiplied by 1/fps per frame.
     """

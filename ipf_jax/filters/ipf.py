@@ -27,7 +27,14 @@ import numpy as np
 from ..body.limits import Limits
 from ..body.model import DEFAULT_INTERESTING, DOF_INDEX, NUM_DOF
 from ..errors import require
-from .base import Filter, FilterState, default_noise_rates, gaussian_noise, rate_std, summarise
+from .base import (
+    Filter,
+    FilterState,
+    default_noise_rates,
+    gaussian_noise,
+    rate_std,
+    summarise,
+)
 from .selection import top_distinct
 
 

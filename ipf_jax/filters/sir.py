@@ -18,8 +18,15 @@ import numpy as np
 
 from ..body.limits import Limits
 from ..errors import require
-from .base import (Filter, FilterState, default_noise_rates, init_state, rate_std,
-                   resample_diffuse, summarise)
+from .base import (
+    Filter,
+    FilterState,
+    default_noise_rates,
+    init_state,
+    rate_std,
+    resample_diffuse,
+    summarise,
+)
 
 
 class SIRSettings(NamedTuple):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Z_NEAR, Camera
+from ..geometry.camera import Z_NEAR, Camera
 
 
 def project_points(cam: Camera, X: np.ndarray):

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..body.model import DOF_INDEX, FRAMES, POINTS, SEGMENTS, SHAPE_INDEX, parse_coord
-from ..kinematics import Pose3D
+from ..geometry.kinematics import Pose3D
 
 
 def _rotation(axis: str, angle: float) -> np.ndarray:

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera
-from ..capsule2d import capsule_outline
-from ..likelihood import weights_from_counts
+from ..geometry.camera import Camera
+from ..geometry.capsule2d import capsule_outline
+from ..likelihood.scorer import weights_from_counts
 from .camera import project_spheres
 from .kinematics import forward_kinematics
 from .raster import counts_from_caps

@@ -1,9 +1,9 @@
 """Reference rasteriser: every pixel of the image against every part of every capsule, int64.
 
 Each capsule's pixels are its parts' pixels (disc0 | disc1 | quad) filled on every row from the
-leftmost to the rightmost one (the row-convex rule of :func:`ipf_jax.raster.row_intervals`).
+leftmost to the rightmost one (the row-convex rule of :func:`ipf_jax.likelihood.raster.row_intervals`).
 
-The quantisation (:func:`ipf_jax.raster.quantize`) is the raster grid's definition and is shared;
+The quantisation (:func:`ipf_jax.likelihood.raster.quantize`) is the raster grid's definition and is shared;
 from there this is the textbook test of a pixel centre against two discs and a convex quad, with
 no region of interest, no clamping and no bit tricks.
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..raster import quant_scale, quantize
+from ..likelihood.raster import quant_scale, quantize
 
 
 def model_mask(caps: np.ndarray, height: int, width: int) -> np.ndarray:

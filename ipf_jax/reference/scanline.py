@@ -2,24 +2,32 @@
 
 Not an oracle (that is :mod:`ipf_jax.reference.raster`, a per-pixel test on the whole image): this
 is what a careful NumPy programmer would write for speed, with the same integers as
-:mod:`ipf_jax.raster` (its quantisation and exact row intervals are called with ``xp=numpy``), so
+:mod:`ipf_jax.likelihood.raster` (its quantisation and exact row intervals are called with ``xp=numpy``), so
 the counts are equal to the JAX kernels' and the reference's exactly. Work is vectorised over a
 chunk of particles; each capsule is rasterised only on the rows and words it can touch in that
-chunk (:func:`ipf_jax.raster.segment_extent`), its row intervals become bit-packed uint32 words,
+chunk (:func:`ipf_jax.likelihood.raster.segment_extent`), its row intervals become bit-packed uint32 words,
 ORed into the model's union grid, ANDed with the mask and counted with ``np.bitwise_count``.
 
 The geometry runs the JAX modules' FK and projection code on NumPy float64 arrays, vectorised over
 particles (the per-particle reference geometry is a thousand times slower and would not be a fair
-baseline). API mirrors :mod:`ipf_jax.likelihood` / :mod:`ipf_jax.reference.likelihood`.
+baseline). API mirrors :mod:`ipf_jax.likelihood.scorer` / :mod:`ipf_jax.reference.likelihood`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera, CameraArrays, project_spheres, stack_cameras
-from ..capsule2d import capsule_outline
-from ..kinematics import forward_kinematics
-from ..raster import WORD, QuantCaps, pack_rows, quant_scale, quantize, row_intervals, segment_extent
+from ..geometry.camera import Camera, CameraArrays, project_spheres, stack_cameras
+from ..geometry.capsule2d import capsule_outline
+from ..geometry.kinematics import forward_kinematics
+from ..likelihood.raster import (
+    WORD,
+    QuantCaps,
+    pack_rows,
+    quant_scale,
+    quantize,
+    row_intervals,
+    segment_extent,
+)
 
 __all__ = ["project_capsules", "counts_from_caps", "counts"]
 

@@ -1,7 +1,7 @@
 """Batch reprocessing: one set of tracking settings over many recordings listed in a manifest.
 
 The manifest is a text file, one recording per line: a dataset folder (any layout
-:func:`ipf_jax.dataset.open_dataset` reads, including a ``dataset.json`` describing videos),
+:func:`ipf_jax.data.dataset.open_dataset` reads, including a ``dataset.json`` describing videos),
 optionally followed by a comma and a truth file in the joints.csv convention. Blank lines and lines
 starting with ``#`` are skipped, as is a ``path,truth`` header; relative paths are relative to the
 manifest. Quote a path that contains a comma (CSV rules)::
@@ -26,7 +26,7 @@ from .spec import Cell, check_filter, make_cell, resolve
 def settings_from_args(args, base: Path | None = None) -> dict:
     """The spec fields shared by every item, from ``track``-style options (``add_tracking_options``);
     relative file options are relative to ``base`` (default: the working directory)."""
-    from ..commands import filter_options
+    from ..cli.commands import filter_options
 
     base = Path.cwd() if base is None else base
     options = filter_options(args)

@@ -27,7 +27,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def add_parser(subparsers) -> None:
     """Register ``sweep`` and ``batch`` on the main CLI's sub-parsers (both set ``func``)."""
-    from ..cli import add_tracking_options
+    from ..cli.main import add_tracking_options
 
     p = subparsers.add_parser(
         "sweep", help="accuracy vs cost over a grid of settings (resumable; local or Ray)",

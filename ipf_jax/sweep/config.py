@@ -34,10 +34,18 @@ from typing import NamedTuple
 
 from ..errors import IPFError, require
 from ..filters.registry import NAMES as FILTERS
-from ..likelihood import KERNELS
-from ..world import AXES
-from .spec import (OPTION_TYPES, TRACK_TYPES, Cell, check_filter, check_frames, coerce, make_cell,
-                   resolve)
+from ..geometry.world import AXES
+from ..likelihood.scorer import KERNELS
+from .spec import (
+    OPTION_TYPES,
+    TRACK_TYPES,
+    Cell,
+    check_filter,
+    check_frames,
+    coerce,
+    make_cell,
+    resolve,
+)
 
 DATASET_KEYS = ("name", "path", "truth", "init_pose", "frames", "height_m", "up_axis", "fps")
 EVAL_KEYS = ("joints", "align")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checkpoint import NAME as CHECKPOINT
+from ..data.checkpoint import NAME as CHECKPOINT
 from ..errors import IPFError
 
 
@@ -70,11 +70,11 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
     Record keys: ``status`` (ok | failed), ``result``, ``timing``, ``error`` (None or type,
     message[, traceback]), ``code`` (:func:`code_fingerprint`), ``host`` (hostname, pid, wall s).
     """
-    from ..commands import _frames
-    from ..dataset import open_dataset
-    from ..evaluation import evaluate_files, summary_doc, write_outputs
-    from ..tracker import track
-    from ..frames import parse_frames
+    from ..analysis.evaluation import evaluate_files, summary_doc, write_outputs
+    from ..cli.commands import _frames
+    from ..data.dataset import open_dataset
+    from ..data.frames import parse_frames
+    from ..tracking.tracker import track
     from .spec import track_settings
 
     work_dir = Path(work_dir)

@@ -20,8 +20,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ..body.limits import PRESETS
+from ..data.frames import parse_frames
 from ..errors import IPFError, require
-from ..frames import parse_frames
 
 SCHEMA = 1  # bump when the meaning of a spec changes, so old cells are not reused
 
@@ -29,7 +29,7 @@ SCHEMA = 1  # bump when the meaning of a spec changes, so old cells are not reus
 OPTION_TYPES = {"top_m": int, "points_per_dof": int, "particles": int, "layers": int,
                 "interval_width_deg": float, "max_speed_deg_s": float, "noise_scale": float,
                 "survival": float, "interesting": "dofs"}
-#: Other :class:`ipf_jax.tracker.TrackSettings` fields a spec may set -> type.
+#: Other :class:`ipf_jax.tracking.tracker.TrackSettings` fields a spec may set -> type.
 TRACK_TYPES = {"budget": int, "resolution": int, "seed": int, "chunk": int, "kernel": str,
                "limits": "limits", "height_m": float, "up_axis": str, "fps": float,
                "shape_file": "path", "confidence_drop": float, "confidence_patience": int,
@@ -100,9 +100,9 @@ def make_cell(spec: dict, varying: dict | None = None) -> Cell:
 
 
 def track_settings(spec: dict):
-    """The :class:`ipf_jax.tracker.TrackSettings` of a spec (initial pose read from its file)."""
-    from ..commands import read_pose_rows
-    from ..tracker import TrackSettings
+    """The :class:`ipf_jax.tracking.tracker.TrackSettings` of a spec (initial pose read from its file)."""
+    from ..cli.commands import read_pose_rows
+    from ..tracking.tracker import TrackSettings
 
     track = dict(spec["track"])
     options = dict(spec["options"])
@@ -118,7 +118,7 @@ def check_filter(spec: dict, *, where: str, path=None) -> None:
     """Build the spec's filter once (cheap) so impossible options fail before any tracking."""
     from ..body.limits import load_limits
     from ..filters import registry
-    from ..tracker import DEFAULT_FPS
+    from ..tracking.tracker import DEFAULT_FPS
 
     options = dict(spec["options"])
     if "interesting" in options:

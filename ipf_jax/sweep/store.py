@@ -18,7 +18,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ..outputs import check_writable, write_json_atomic
+from ..data.runfiles import check_writable, write_json_atomic
 from .spec import Cell
 
 

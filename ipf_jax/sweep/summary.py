@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outputs import write_json_atomic
+from ..data.runfiles import write_json_atomic
 
 TIMING_COLUMNS = ("seconds_per_frame", "seconds_per_frame_median", "seconds_total")
 RESULT_COLUMNS = ("status", "filter_params", "evaluations_per_frame", "init_evaluations", "frames_done",

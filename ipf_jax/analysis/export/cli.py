@@ -1,0 +1,76 @@
+"""``ipf-jax export RUN_DIR --format trc|c3d|bvh|csv --out FILE [--up AXIS] [--units m|cm|mm]``.
+
+Thin over the library: read the run directory, call one exporter. Wire it into the main CLI with
+:func:`add_parser` (it sets ``func=run``); :func:`main` runs it alone.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ...data.rundir import read_run
+from ...errors import IPFError
+from ...geometry.world import AXES
+from .axes import UNIT_SCALE
+from .bvh import export_bvh
+from .c3d import export_c3d
+from .joints_csv import export_csv
+from .trc import export_trc
+
+#: format -> (exporter, default up axis (None = the run's world frame), default units)
+EXPORTERS = {
+    "trc": (export_trc, "+y", "mm"),
+    "c3d": (export_c3d, None, "mm"),
+    "bvh": (export_bvh, "+y", "m"),
+    "csv": (export_csv, None, "m"),
+}
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``export`` sub-command to an ``argparse`` sub-parser collection."""
+    p = subparsers.add_parser(
+        "export", help="write tracking results as TRC, C3D, BVH or CSV",
+        description="Export a run directory (joints.csv, poses.csv, run.json) to OpenSim (TRC), "
+                    "Mokka/Vicon (C3D), Blender (BVH) or CSV. See docs/export.md.")
+    p.add_argument("run_dir", metavar="RUN_DIR", help="directory written by 'ipf-jax track'")
+    p.add_argument("--format", choices=tuple(EXPORTERS),
+                   help="output format (default: from the --out suffix)")
+    p.add_argument("--out", required=True, metavar="FILE", help="output file")
+    p.add_argument("--up", choices=AXES, metavar="AXIS",
+                   help="up axis in the file, one of " + " ".join(AXES) + " (write --up=-z for a "
+                        "negative axis); default: +y for trc and bvh, the run's world frame for "
+                        "c3d and csv")
+    p.add_argument("--units", choices=tuple(UNIT_SCALE),
+                   help="length unit; default: mm for trc and c3d, m for bvh and csv")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``export``; a user error prints one ``error: ...`` line on stderr and returns 2."""
+    out = Path(args.out)
+    fmt = args.format or out.suffix.lower().lstrip(".")
+    try:
+        if fmt not in EXPORTERS:
+            raise IPFError(f"cannot tell the format from the suffix {out.suffix!r}; use --format "
+                           f"({', '.join(EXPORTERS)})", out)
+        export, up, units = EXPORTERS[fmt]
+        run_data = read_run(args.run_dir)
+        export(run_data, out, up=args.up or up, units=args.units or units)
+    except IPFError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {out} ({fmt}, {len(run_data.frames)} frames)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry: ``python -m ipf_jax.analysis.export.cli export RUN_DIR ...``."""
+    parser = argparse.ArgumentParser(prog="ipf-jax")
+    add_parser(parser.add_subparsers(dest="command", required=True))
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,77 @@
+"""``ipf-jax gait INPUT --out DIR``: gait events and parameters from joints or marker files.
+
+Thin over the library: :func:`ipf_jax.analysis.gait.io.load` -> :func:`ipf_jax.analysis.gait.analyse` ->
+:func:`ipf_jax.analysis.gait.report.write_outputs`. :func:`add_parser` registers the sub-command on the main
+CLI's sub-parsers; :func:`run` executes parsed arguments and returns the exit status (0 ok,
+2 for a user-fixable problem, printed as one ``error: <file>: <problem>`` line on stderr).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ...errors import IPFError
+from ...geometry.world import AXES
+from .events import DEFAULT_METHOD, METHODS
+from .filtering import DEFAULT_CUTOFF_HZ
+from .io import UNIT_SCALE
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``gait`` sub-command to an ``argparse`` sub-parsers object; returns its parser."""
+    p = subparsers.add_parser(
+        "gait", help="gait events and parameters from joints.csv, .trc or .c3d",
+        description="Detect heel strikes and toe-offs and measure spatio-temporal gait "
+                    "parameters; writes gait.json, steps.csv, strides.csv, PNG plots and "
+                    "report.html into --out.")
+    p.add_argument("input", help="joints.csv (tracker output or same convention), .trc or .c3d")
+    p.add_argument("--out", required=True, help="output folder (created)")
+    p.add_argument("--marker-map", default=None,
+                   help="JSON role -> marker name(s) for .trc/.c3d (default: OpenSim Rajagopal)")
+    p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD,
+                   help=f"event detection method (default {DEFAULT_METHOD})")
+    p.add_argument("--up", choices=AXES, default=None,
+                   help="up axis of the input (default: run.json, C3D, else +y for markers)")
+    p.add_argument("--units", choices=tuple(UNIT_SCALE), default=None,
+                   help="units of the input coordinates (default: as the file says)")
+    p.add_argument("--cutoff", type=float, default=DEFAULT_CUTOFF_HZ,
+                   help=f"low-pass cut-off in Hz (default {DEFAULT_CUTOFF_HZ:g}; at most fps/4)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the analysis for parsed ``args``; returns the process exit status."""
+    from .analysis import analyse
+    from .io import load
+    from .report import write_outputs
+
+    try:
+        traj = load(args.input, marker_map=args.marker_map, up=args.up, units=args.units)
+        result = analyse(traj, method=args.method, cutoff_hz=args.cutoff)
+        files = write_outputs(result, args.out)
+    except IPFError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    p = result.parameters
+    n_hs = sum(len(result.events[f"{s}_heel_strike"]) for s in ("left", "right"))
+    speed = p["walking_speed_m_s"]["all"]["mean"]
+    cadence = p["cadence_steps_per_min"]["all"]["mean"]
+    print(f"{n_hs} heel strikes, {len(result.steps)} steps"
+          + (f", cadence {cadence:.1f} steps/min" if cadence is not None else "")
+          + (f", speed {speed:.2f} m/s" if speed is not None else "")
+          + f"; {len(result.missing)} values not computed (see gait.json 'missing')"
+          + f"; wrote {', '.join(files)} to {args.out}")
+    return 0
+
+
+def main(argv: list | None = None) -> int:
+    """Stand-alone entry (``python -m ipf_jax.analysis.gait.cli``) until the main CLI wires ``gait`` in."""
+    parser = argparse.ArgumentParser(prog="ipf-jax")
+    add_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,207 @@
+"""Datasets: calibrated cameras + a per-frame source of foreground masks.
+
+Layouts (detected from the folder):
+
+* **bodytrack**: ``CALIB/CameraK.cal`` (or ``CALIB/cameras.json``), masks ``FGk/imageNNNN.bmp|png``,
+  optional grey images ``CAMk/imageNNNN.bmp``. Frame numbers come from the file names and must be
+  the same for every camera.
+* **ipf-jax** (``dataset.json``): any calibration file the readers know, and per camera either a
+  mask folder, an image folder with a background image, or a video with an optional background
+  video (else the temporal median of the video). See docs/formats.md.
+
+A dataset exposes ``cameras`` (full resolution), ``frames`` (frame numbers), ``fps`` (or None),
+``masks(frame) -> list of (H_c, W_c) bool`` and ``images(frame)`` (for overlays; may be None).
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import IPFError, load_json, require
+from ..geometry.camera import Camera
+from .calibration import read_bodytrack_cal, read_json
+
+_FRAME_RE = re.compile(r"(\d+)\.(bmp|png|jpg|jpeg|tif|tiff)$", re.IGNORECASE)
+
+
+def _numbered_files(folder: Path) -> dict[int, Path]:
+    files = {}
+    for p in folder.iterdir():
+        m = _FRAME_RE.search(p.name)
+        if m:
+            files[int(m.group(1))] = p
+    return files
+
+
+def _natural_key(p: Path):
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
+
+
+class MaskFolder:
+    """Precomputed masks ``imageNNNN.png|bmp`` (non-zero = foreground), used as they are."""
+
+    def __init__(self, folder: Path):
+        self.folder = Path(folder)
+        self.files = _numbered_files(self.folder)
+        require(bool(self.files), "no numbered mask images (imageNNNN.png|bmp)", self.folder)
+
+    @property
+    def frames(self) -> list[int]:
+        return sorted(self.files)
+
+    def mask(self, frame: int) -> np.ndarray:
+        from .silhouette import read_mask
+
+        return read_mask(self.files[frame])
+
+
+class Dataset:
+    """Cameras and their mask sources (one per camera, same frames)."""
+
+    def __init__(self, path: Path, cameras: list[Camera], sources: list, *, fps: float | None = None,
+                 up_axis: str | None = None, image_folders: list[Path] | None = None, layout: str = ""):
+        self.path = Path(path)
+        self.cameras = cameras
+        self.sources = sources
+        self.fps = fps
+        self.up_axis = up_axis
+        self.layout = layout
+        self.image_folders = image_folders or []
+        require(len(cameras) == len(sources),
+                f"{len(cameras)} cameras in the calibration but {len(sources)} mask sources", self.path)
+        frame_sets = [s.frames for s in sources]
+        for k, fr in enumerate(frame_sets[1:], start=2):
+            if fr != frame_sets[0]:
+                only = sorted(set(frame_sets[0]) ^ set(fr))
+                src = sources[k - 1]
+                raise IPFError(f"camera {k} has {len(fr)} frames, camera 1 has {len(frame_sets[0])}: "
+                               "frame numbers must be the same for every camera (in one camera only: "
+                               f"{', '.join(map(str, only[:5]))}{' ...' if len(only) > 5 else ''})",
+                               getattr(src, "folder", None) or getattr(src, "path", None) or self.path)
+        self.frames = list(frame_sets[0])
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    def masks(self, frame: int) -> list[np.ndarray]:
+        out = []
+        for k, (src, cam) in enumerate(zip(self.sources, self.cameras), start=1):
+            m = src.mask(frame)
+            if m.shape != (cam.height, cam.width):
+                where = getattr(src, "files", {}).get(frame, self.path)
+                raise IPFError(f"mask of camera {k} is {m.shape[1]}x{m.shape[0]} but its calibration "
+                               f"says {cam.width}x{cam.height}", where)
+            out.append(m)
+        return out
+
+    def images(self, frame: int) -> list[np.ndarray] | None:
+        """Camera images for overlays (grey or BGR), when the dataset has them; else None."""
+        sources = getattr(self, "sources", None) or []  # MemoryDataset has none
+        if sources and all(callable(getattr(s, "image", None)) for s in sources):
+            out = [s.image(frame) for s in sources]  # dataset.json sources
+            return None if any(im is None for im in out) else out
+        if not self.image_folders:
+            return None
+        from .silhouette import read_gray
+
+        out = []
+        for folder in self.image_folders:
+            files = _numbered_files(folder)
+            if frame not in files:
+                return None
+            out.append(read_gray(files[frame]))
+        return out
+
+
+def _check_principal_point(cam: Camera, path: Path) -> None:
+    cx, cy = cam.K[0, 2], cam.K[1, 2]
+    if not (0 <= cx < cam.width and 0 <= cy < cam.height):
+        raise IPFError(f"principal point ({cx:.1f}, {cy:.1f}) lies outside the {cam.width}x{cam.height} "
+                       "masks: masks and calibration do not belong together", path)
+
+
+def open_bodytrack(path: Path) -> Dataset:
+    calib = path / "CALIB"
+    fg = sorted([p for p in path.glob("FG*") if p.is_dir() and p.name[2:].isdigit()], key=_natural_key)
+    require(bool(fg), "no FG1.. mask folders", path)
+    sources = [MaskFolder(f) for f in fg]
+    first = [s.mask(s.frames[0]) for s in sources]
+    if (calib / "cameras.json").exists():
+        cams = read_json(calib / "cameras.json")
+    else:
+        cal_files = sorted(calib.glob("Camera*.cal"), key=_natural_key)
+        require(bool(cal_files), "no CALIB/CameraK.cal files", calib)
+        # .cal files hold no image size: it comes from the masks, so a camera whose masks have
+        # another size would silently get intrinsics made for the others' size
+        for f, m in zip(fg[1:], first[1:]):
+            require(m.shape == first[0].shape, f"masks are {m.shape[1]}x{m.shape[0]} but {fg[0].name}'s "
+                    f"are {first[0].shape[1]}x{first[0].shape[0]}: with .cal calibrations (no image "
+                    "size in them) every camera's masks must have the same size (CALIB/cameras.json gives "
+                    "each camera its own)", f)
+        cams = []
+        for f, m in zip(cal_files, first):
+            cams.append(read_bodytrack_cal(f, width=m.shape[1], height=m.shape[0]))
+        require(len(cal_files) == len(fg),
+                f"{len(cal_files)} calibration files but {len(fg)} FG folders", calib)
+    for cam, f in zip(cams, fg):
+        _check_principal_point(cam, f)
+    images = [path / f"CAM{f.name[2:]}" for f in fg]
+    images = images if all(p.is_dir() for p in images) else []
+    return Dataset(path, cams, sources, image_folders=images, layout="bodytrack")
+
+
+def open_dataset(path: str | Path) -> Dataset:
+    """Open a dataset folder (layout detected); raises IPFError with the folder and the problem."""
+    path = Path(path)
+    if not path.exists():
+        raise IPFError("dataset folder not found", path)
+    if not path.is_dir():
+        raise IPFError("dataset must be a folder", path)
+    if (path / "dataset.json").exists():
+        return open_described(path)
+    if (path / "CALIB").is_dir():
+        return open_bodytrack(path)
+    raise IPFError("unknown dataset layout: expected CALIB/ + FGk/ folders (bodytrack) or a dataset.json", path)
+
+
+def open_described(path: Path) -> Dataset:
+    """The ipf-jax layout: ``dataset.json`` (see docs/formats.md)."""
+    from .sources import build_sources
+
+    doc_path = path / "dataset.json"
+    doc = load_json(doc_path, "dataset.json")
+    require(isinstance(doc, dict) and isinstance(doc.get("cameras"), list) and doc["cameras"],
+            "dataset.json needs a non-empty 'cameras' list", doc_path)
+    cams, sources = build_sources(path, doc)
+    for cam in cams:
+        _check_principal_point(cam, doc_path)
+    fps = doc.get("fps") or next((s.fps for s in sources if getattr(s, "fps", None)), None)
+    require(fps is None or (isinstance(fps, (int, float)) and fps > 0),
+            f"'fps' must be a positive number, got {fps!r}", doc_path)
+    ds = Dataset(path, cams, sources, fps=float(fps) if fps else None, up_axis=doc.get("up_axis"),
+                 layout="ipf-jax")
+    ds.height_m = doc.get("height_m")  # the subject's height when the file gives it (or None)
+    return ds
+
+
+class MemoryDataset(Dataset):
+    """Masks already in memory (T, C, H, W) bool: the demo and tests."""
+
+    def __init__(self, cameras: list[Camera], masks: np.ndarray, *, frames=None, fps=None,
+                 name: str = "memory", up_axis: str | None = None):
+        self.path = Path(name)
+        self.cameras = cameras
+        self._masks = masks
+        self.frames = list(frames if frames is not None else range(len(masks)))
+        self.fps = fps
+        self.up_axis = up_axis
+        self.layout = "memory"
+        self.image_folders = []
+        self._index = {f: i for i, f in enumerate(self.frames)}
+
+    def masks(self, frame: int) -> list[np.ndarray]:
+        i = self._index[frame]
+        return [self._masks[i, c, : cam.height, : cam.width] for c, cam in enumerate(self.cameras)]

@@ -1,0 +1,177 @@
+"""Run-directory files: ``joints.csv``, ``poses.csv`` (appended + fsynced frame by frame), ``run.json``.
+
+Rows are written with 6 decimals and ``nan`` for missing frames, so a run that is killed keeps
+every frame it finished, and a resumed run produces byte-identical files (see :mod:`.checkpoint`).
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..body.model import DOF_NAMES, POINT_NAMES
+from ..errors import IPFError, require
+
+JOINT_COLUMNS = ["frame", "time_s"] + [f"{p}_{a}" for p in POINT_NAMES for a in "xyz"]
+POSE_COLUMNS = ["frame", "time_s"] + list(DOF_NAMES)
+
+
+def _fmt(values) -> str:
+    return ",".join("nan" if not np.isfinite(v) else f"{v:.6f}" for v in values)
+
+
+class CsvAppender:
+    """Append rows to a CSV, flushing and fsyncing each one (crash-safe).
+
+    keep_rows : resume: keep the header and this many rows of the existing file, append after.
+    lazy : create a new file only with its first row, so a run that fails before writing anything
+        leaves a previous run's file as it was.
+    """
+
+    def __init__(self, path: Path, columns: list[str], keep_rows: int | None = None, *,
+                 lazy: bool = False):
+        self.path = Path(path)
+        self._header = ",".join(columns) + "\n"
+        self._fh = None
+        if keep_rows is None or not self.path.exists():
+            require(not keep_rows, f"cannot resume: the file is missing (the checkpoint has {keep_rows} "
+                    "rows of it)", self.path)
+            if not lazy:
+                self._start()
+        else:
+            lines = self.path.read_text().splitlines(keepends=True)
+            require(lines and lines[0].strip() == ",".join(columns),
+                    "cannot resume: unexpected header", self.path)
+            require(len(lines) - 1 >= keep_rows,
+                    f"cannot resume: the file has {len(lines) - 1} rows, the checkpoint needs {keep_rows}",
+                    self.path)
+            self.path.write_text("".join(lines[: keep_rows + 1]))
+            self._fh = open(self.path, "a")
+
+    def _start(self) -> None:
+        self._fh = open(self.path, "w")
+        self._fh.write(self._header)
+        self._fh.flush()
+
+    def write(self, frame: int, time_s: float, values: np.ndarray) -> None:
+        if self._fh is None:
+            self._start()
+        self._fh.write(f"{frame},{time_s:.6f},{_fmt(values)}\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+
+
+def write_json_atomic(path: Path, doc: dict) -> None:
+    """Write JSON via a temporary file and rename (never a half-written file)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        json.dump(doc, fh, indent=1, default=_json_default)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def check_writable(out_dir: Path) -> Path:
+    """Create ``out_dir`` and make sure we can write in it (one clear error otherwise)."""
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        probe = out_dir / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise IPFError(f"output folder is not writable ({e.strerror or e})", out_dir) from None
+    return out_dir
+
+
+MAX_COORD_M = 1e5  # metres: larger coordinates are not positions in a capture volume
+
+
+class JointsTable(NamedTuple):
+    """A ``joints.csv``-convention table: frame (T,), time_s (T,), points (T, J, 3), names (J,)."""
+
+    frame: np.ndarray
+    time_s: np.ndarray
+    points: np.ndarray
+    names: tuple[str, ...]
+
+
+def read_table(path: str | Path, what: str = "CSV") -> tuple[list[str], np.ndarray]:
+    """(header, (T, K) float64 values) of a comma-separated numeric table with one header line.
+
+    Every cell must be a number (``nan`` and ``inf`` parse; callers decide what they accept); a
+    row with another number of cells than the header, a non-numeric cell or a file without rows
+    is an :class:`IPFError` naming the file and the line.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise IPFError("file not found", path) from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise IPFError(f"not a readable {what} ({e})", path) from None
+    lines = [(n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip()]
+    require(bool(lines), f"empty {what}", path)
+    header = [h.strip() for h in lines[0][1].split(",")]
+    rows = []
+    for n, line in lines[1:]:
+        cells = line.split(",")
+        require(len(cells) == len(header), f"line {n} has {len(cells)} values, the header "
+                f"{len(header)}", path)
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise IPFError(f"line {n}: {bad.strip()[:20]!r} is not a number", path) from None
+    require(bool(rows), f"no data rows in the {what}", path)
+    return header, np.array(rows, np.float64)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_joints_csv(path: str | Path) -> JointsTable:
+    """Read any CSV in the ``joints.csv`` convention (``frame,time_s,<point>_x/_y/_z``, extras ignored)."""
+    path = Path(path)
+    header, data = read_table(path, "joints CSV")
+    require("frame" in header and "time_s" in header, "needs 'frame' and 'time_s' columns", path)
+    names = []
+    for col in header:
+        if col.endswith("_x"):
+            name = col[:-2]
+            if f"{name}_y" in header and f"{name}_z" in header:
+                names.append(name)
+    require(names, "no <point>_x,_y,_z column triples", path)
+    idx = {c: i for i, c in enumerate(header)}
+    frame, time_s = data[:, idx["frame"]], data[:, idx["time_s"]]
+    require(bool(np.all(np.isfinite(frame)) and np.all(frame == np.round(frame))
+                 and np.all(np.abs(frame) < 2**31)), "'frame' must hold whole frame numbers", path)
+    require(bool(np.all(np.isfinite(time_s))), "'time_s' must hold finite times in seconds", path)
+    pts = np.stack([data[:, [idx[f"{n}_x"], idx[f"{n}_y"], idx[f"{n}_z"]]] for n in names], axis=1)
+    # nan is a missing value (a frame the tracker missed); inf or astronomic values are not metres
+    bad = ~np.isnan(pts) & ~(np.abs(pts) <= MAX_COORD_M)
+    require(not bad.any(), f"{int(bad.sum())} coordinates are infinite or beyond {MAX_COORD_M:g} m "
+            "(coordinates are metres; missing values are nan)", path)
+    return JointsTable(frame.astype(np.int64), time_s, pts, tuple(names))

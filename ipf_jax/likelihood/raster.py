@@ -1,0 +1,373 @@
+"""Hard rasterisation of 2D capsules and silhouette counts, in exact integer arithmetic (JAX).
+
+Why integers: XLA may fuse ``a * b + c`` into one FMA while NumPy rounds twice, so float predicates
+cannot promise bit-identical pixel sets. The raster stage therefore starts by quantising every
+capsule record (:mod:`ipf_jax.geometry.capsule2d`) to a fixed-point grid of ``1/Q`` pixel (``Q = 8`` up to
+1024 px, else 4; images up to 2048 px), after clipping coordinates to a guard band of half the
+image's long side around it and radii to the long side. From there on every test is an int32
+expression whose magnitude is bounded below 2**30, so JAX, NumPy and any chunking agree exactly.
+
+A pixel (row ``i``, column ``j``) has its centre at ``(Q j, Q i)`` on that grid. A capsule's parts
+are disc0, disc1 and the tangent quad (closed sets); on each row the capsule covers the columns from
+its leftmost to its rightmost inside pixel centre (row-convex: for the exact hull of two discs this
+changes nothing; it keeps fixed-point slivers between parts from splitting a row).
+
+Work is restricted to windows. Each capsule ``s`` is rasterised on a window of ``R`` rows starting
+at ``win_rows[s]`` and ``Wd`` 32-bit words starting at ``win_words[s]``; the windows must hold every
+in-image pixel of the capsule (:func:`segment_extent` bounds them) and then the counts do not depend
+on where they are. Two kernels give each capsule's row intervals on its window:
+
+* :func:`interval_stage` (scanline) solves each part's row interval exactly (integer square root
+  and floor division done as a float estimate plus one exact integer check): O(rows x segments);
+* :func:`dense_interval_stage` tests every window pixel against every part: O(pixels x segments).
+
+:func:`word_stage` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
+windows into one grid (the union), ANDs it with the mask's words and counts with
+``population_count``. :mod:`ipf_jax.reference.raster` does the dense test on the whole image in
+NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy.
+
+The JAX kernels are written for ONE capsule set (one particle, one camera); callers vmap.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..geometry.capsule2d import FLAG
+
+WORD = 32
+_BIG = 1 << 14  # clamp for coordinate differences in the disc test (|d| <= 2**14 -> d^2 <= 2**28)
+_FAR = 1 << 20  # an interval bound beyond any image
+
+
+def quant_scale(height: int, width: int) -> int:
+    """Fixed-point sub-pixel factor Q for an image size."""
+    long_side = max(height, width)
+    if long_side > 2048:
+        raise ValueError(f"scoring resolution {width}x{height} exceeds 2048 px; lower --resolution")
+    return 8 if long_side <= 1024 else 4
+
+
+def _guard(long_side: int):
+    """Clip range of coordinates (the guard band) and of radii, float32."""
+    return (np.float32(-0.5 * long_side), np.float32(1.5 * long_side), np.float32(long_side))
+
+
+class QuantCaps(NamedTuple):
+    """Quantised capsules, int32, leading axis S.
+
+    disc : (S, 2, 3) (cx, cy, r) per disc;  quad : (S, 4, 2) corners;
+    drawn : (S,) bool;  quad_on : (S,) bool.
+    """
+
+    disc: jnp.ndarray
+    quad: jnp.ndarray
+    drawn: jnp.ndarray
+    quad_on: jnp.ndarray
+
+
+def quantize(xp, caps: jnp.ndarray, q: int, long_side: int):
+    """(S, 15) float32 capsule records -> :class:`QuantCaps` (shared by JAX and NumPy).
+
+    Only exact float32 operations (clip, multiply by a power of two, round-half-even) are used
+    before the cast, so both array libraries produce identical integers.
+    """
+    lo, hi, r_hi = _guard(long_side)
+
+    def coord(i):
+        return xp.round(xp.clip(caps[..., i].astype(xp.float32), lo, hi) * np.float32(q)).astype(xp.int32)
+
+    def radius(i):
+        r = xp.clip(caps[..., i].astype(xp.float32), np.float32(0), r_hi)
+        return xp.round(r * np.float32(q)).astype(xp.int32)
+
+    # field by field, stacked last: XLA's CPU loops are slow on small trailing axes, and the
+    # consumers' indexing into these stacks folds away
+    disc = xp.stack([xp.stack([coord(0), coord(1), radius(2)], axis=-1),
+                     xp.stack([coord(3), coord(4), radius(5)], axis=-1)], axis=-2)
+    corners = [(coord(6 + 2 * k), coord(7 + 2 * k)) for k in range(4)]
+    quad = xp.stack([xp.stack(c, axis=-1) for c in corners], axis=-2)
+    flag = caps[..., FLAG].astype(xp.float32)
+    drawn = flag > 0.5
+    quad_on = (flag > 1.5) & _proper_quad(corners)
+    return QuantCaps(disc, quad, drawn, quad_on)
+
+
+def segment_extent(xp, caps, long_side: int):
+    """(..., S, 15) records -> (..., S, 4) float32 (row_min, row_max, col_min, col_max).
+
+    A conservative bound of every pixel of each capsule *as quantised* (clipped to the guard band:
+    a capsule far outside can reach into the image after clipping, so the raw record's box is not
+    enough), one pixel of margin. Capsules that are not drawn get an empty box (min > max).
+    """
+    lo, hi, r_hi = _guard(long_side)
+    far = np.float32(1e9)
+
+    def field(i):
+        return caps[..., i].astype(xp.float32)
+
+    # column by column (no small trailing axes): XLA's CPU loops are slow on those
+    r0, r1 = (xp.clip(field(i), np.float32(0), r_hi) for i in (2, 5))
+    quad_on = field(FLAG) > 1.5
+    drawn = field(FLAG) > 0.5
+    out = []
+    for axis in (1, 0):  # rows come from y, columns from x
+        c0, c1 = xp.clip(field(axis), lo, hi), xp.clip(field(3 + axis), lo, hi)
+        low, high = xp.minimum(c0 - r0, c1 - r1), xp.maximum(c0 + r0, c1 + r1)
+        for k in range(4):
+            corner = xp.clip(field(6 + 2 * k + axis), lo, hi)
+            low = xp.where(quad_on, xp.minimum(low, corner), low)
+            high = xp.where(quad_on, xp.maximum(high, corner), high)
+        out += [xp.where(drawn, xp.floor(low) - 1, far), xp.where(drawn, xp.ceil(high) + 1, -far)]
+    return xp.stack(out, axis=-1)
+
+
+def _cross(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+def _proper_quad(corners):
+    """Convex, positively oriented, positive area: then its 4 half-planes bound exactly it.
+
+    corners : 4 (x, y) pairs of int32 arrays.
+    """
+    edges = [(corners[(k + 1) % 4][0] - corners[k][0], corners[(k + 1) % 4][1] - corners[k][1])
+             for k in range(4)]
+    convex = None
+    for k in range(4):
+        turn = _cross(*edges[k], *edges[(k + 1) % 4]) >= 0
+        convex = turn if convex is None else convex & turn
+    d1 = (corners[2][0] - corners[0][0], corners[2][1] - corners[0][1])
+    d2 = (corners[3][0] - corners[1][0], corners[3][1] - corners[1][1])
+    return (_cross(*d1, *d2) > 0) & convex
+
+
+def _isqrt(xp, m):
+    """floor(sqrt(m)) for int32 0 <= m < 2**30, exact: nearest integer of the float root, then one
+    integer check (the float root is within 0.01 of the truth at these magnitudes)."""
+    s = xp.round(xp.sqrt(m.astype(xp.float32))).astype(xp.int32)
+    return xp.where(s * s > m, s - 1, s)
+
+
+def _bound(xp, c, d, inv_d, t_lo, t_hi):
+    """Extreme integer t with ``d * t <= c`` (the largest if d > 0, the smallest if d < 0).
+
+    Exact whenever that t lies inside (t_lo, t_hi) (float32 bounds): the float quotient is then
+    within 0.01 of c/d, its nearest integer n is the answer or off by one, and one integer product
+    decides. Outside the window the clipped value keeps the right side, which is all the caller
+    needs (the bound then falls outside the image). No integer division: it is not vectorised on
+    CPUs.
+    """
+    n = xp.clip(xp.round(c.astype(xp.float32) * inv_d), t_lo, t_hi).astype(xp.int32)
+    ok = d * n <= c
+    return xp.where(ok, n, n - xp.sign(d))
+
+
+def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
+    """Exact column interval of every capsule on every row (row-convex fill of its parts).
+
+    rows : (R,) image rows shared by all capsules, or (S, R) rows per capsule (int32).
+    Returns lo, hi : (S, R) int32, clipped to [-1, width] (empty when lo > hi). A capsule covers,
+    on each row, the columns from the leftmost to the rightmost pixel centre inside any of its
+    parts (disc0, disc1, quad); for the true hull of two discs this is the hull itself, and it
+    keeps quantisation slivers from splitting a row. ``xp`` is the array namespace (NumPy for the
+    vectorised NumPy baseline, which adds leading particle axes).
+    """
+    shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
+    py = (rows if rows.ndim == qc.drawn.ndim + 1 else rows[..., None, :]) * q  # (..., S or 1, R)
+    shape = xp.broadcast_shapes(py.shape, qc.drawn.shape + (1,))
+    lo = xp.full(shape, _FAR, xp.int32)
+    hi = xp.full(shape, -_FAR, xp.int32)
+    for k in range(2):
+        cx, cy, r = (qc.disc[..., k, i][..., None] for i in range(3))  # (..., S, 1)
+        dy = xp.clip(py - cy, -_BIG, _BIG)
+        m = r * r - dy * dy
+        s = _isqrt(xp, xp.maximum(m, 0))
+        d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
+        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
+        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
+        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
+    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
+    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
+    q_lo = xp.full(shape, -_FAR, xp.int32)
+    q_hi = xp.full(shape, _FAR, xp.int32)
+    q_ok = xp.broadcast_to(qc.quad_on[..., None], shape)
+    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
+    for k in range(4):
+        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
+        ax, ay = a[..., 0:1], a[..., 1:2]
+        ex, ey = b[..., 0:1] - ax, b[..., 1:2] - ay  # (..., S, 1)
+        n = ex * py + (ey * ax - ex * ay)  # (..., S, R)
+        d = ey * q
+        j = _bound(xp, n, d, np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32), j_lo, j_hi)
+        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
+        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
+        q_ok = q_ok & ((d != 0) | (n >= 0))
+    q_ok = q_ok & (q_lo <= q_hi)
+    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
+    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
+    drawn = qc.drawn[..., None]
+    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
+    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
+    return lo, hi
+
+
+def pack_intervals(lo, hi, rows, height, width, xp=jnp):
+    """Row intervals clipped to the image -> one int32 per row: ``(lo + 1) << 12 | (hi + 1)``.
+
+    A single output keeps XLA from fusing the interval stage into every consumer (it would
+    recompute the intervals once per word). Rows at or below ``height`` become empty.
+    """
+    lo = xp.maximum(lo, 0)
+    hi = xp.where(rows < height, xp.minimum(hi, width - 1), -1)
+    return ((lo + 1) << 12) | (hi + 1)
+
+
+def unpack_intervals(packed):
+    return (packed >> 12) - 1, (packed & 4095) - 1
+
+
+def _window_rows(win_rows, n_win: int, xp=jnp):
+    """(..., S) first rows -> (..., S, R) rows of each capsule's window."""
+    return win_rows[..., None] + xp.arange(n_win, dtype=xp.int32)
+
+
+def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
+    """Scanline kernel, stage 1: (S, 15) records -> (S, R) packed intervals on each window.
+
+    win_rows : (S,) int32 first row of each capsule's window;  n_win : R (static).
+    """
+    rows = _window_rows(win_rows, n_win)
+    lo, hi = row_intervals(quantize(jnp, caps, q, long_side), rows, q, width)
+    return pack_intervals(lo, hi, rows, height, width)
+
+
+def parts_inside(qc: QuantCaps, px, py, xp=jnp):
+    """Per-pixel membership in each capsule's parts (before the row fill).
+
+    px, py : int32 fixed-point pixel centres broadcasting against (S, 1, 1) (e.g. (S, 1, X) and
+    (S, R, 1)).  Returns (S, R, X) bool.
+    """
+    def per_seg(a):
+        return a[:, None, None]
+
+    inside = xp.zeros(xp.broadcast_shapes(px.shape, py.shape), bool)
+    for k in range(2):
+        cx, cy, r = (per_seg(qc.disc[:, k, i]) for i in range(3))
+        dx = xp.clip(px - cx, -_BIG, _BIG)
+        dy = xp.clip(py - cy, -_BIG, _BIG)
+        inside = inside | (dx * dx + dy * dy <= r * r)
+    quad_in = per_seg(qc.quad_on)
+    for k in range(4):
+        a, b = qc.quad[:, k], qc.quad[:, (k + 1) % 4]
+        ax, ay = per_seg(a[:, 0]), per_seg(a[:, 1])
+        quad_in = quad_in & (_cross(per_seg(b[:, 0]) - ax, per_seg(b[:, 1]) - ay, px - ax, py - ay) >= 0)
+    return (inside | quad_in) & per_seg(qc.drawn)
+
+
+def dense_interval_stage(caps, win_rows, win_words, n_win: int, n_win_words: int, q: int,
+                         long_side: int, height, width):
+    """Dense kernel, stage 1: the same (S, R) packed intervals by testing every window pixel.
+
+    win_words : (S,) int32 first word of each window;  n_win_words : Wd (static). Each row's
+    interval runs from the leftmost to the rightmost inside pixel (the row-convex rule).
+    """
+    qc = quantize(jnp, caps, q, long_side)
+    rows = _window_rows(win_rows, n_win)  # (S, R)
+    cols = win_words[:, None] * WORD + jnp.arange(n_win_words * WORD, dtype=jnp.int32)  # (S, X)
+    inside = parts_inside(qc, cols[:, None, :] * q, rows[:, :, None] * q)
+    inside = inside & (cols < width)[:, None, :]
+    col = jnp.broadcast_to(cols[:, None, :], inside.shape)
+    # one variadic reduction: two separate ones would make XLA materialise the pixel tests
+    lo, hi = jax.lax.reduce((jnp.where(inside, col, _FAR), jnp.where(inside, col, -1)),
+                            (np.int32(_FAR), np.int32(-1)),
+                            lambda a, b: (jnp.minimum(a[0], b[0]), jnp.maximum(a[1], b[1])), (2,))
+    return pack_intervals(jnp.minimum(lo, width), hi, rows, height, width)
+
+
+def _bits_between(a, b):
+    """uint32 with bits a .. b-1 set, 0 <= a <= b <= 32.
+
+    XLA defines a shift by the full width (32) as 0, so ``ALL << a`` holds bits a .. 31 for every
+    a in 0 .. 32 and the XOR of two of them is the run between (no selects).
+    """
+    full = jnp.uint32(0xFFFFFFFF)
+    return (full << a.astype(jnp.uint32)) ^ (full << b.astype(jnp.uint32))
+
+
+class Roi(NamedTuple):
+    """The union grid: ``rows`` x ``words`` (static sizes) starting at (row0, word0) (dynamic)."""
+
+    row0: jnp.ndarray
+    word0: jnp.ndarray
+
+
+def window_bits(packed, win_words, n_win_words: int):
+    """(S, R) packed intervals -> (S, Wd, R) uint32 bit words of each capsule's window."""
+    lo, hi = unpack_intervals(packed)
+    base = ((win_words[:, None] + jnp.arange(n_win_words, dtype=jnp.int32)) * WORD)[:, :, None]
+    a = jnp.clip(lo[:, None, :] - base, 0, WORD)
+    b = jnp.clip(hi[:, None, :] + 1 - base, 0, WORD)
+    return _bits_between(a, jnp.maximum(a, b))
+
+
+def word_stage(packed, sil_words, roi: Roi, win_rows, win_words, n_win_words: int, n_rows: int,
+               n_words: int):
+    """Stage 2: (S, R) packed intervals -> (Nc, Nm_total) int32 against one bit-packed mask.
+
+    Each capsule's window of bit words is ORed into the union grid (rows minor, so the loops
+    vectorise; the window offsets are shared by all particles, so under vmap they stay plain
+    dynamic slices), ANDed with the mask's words and counted with ``population_count``.
+    """
+    bits = window_bits(packed, win_words, n_win_words)
+    grid = jnp.zeros((n_words, n_rows), jnp.uint32)
+    for s in range(bits.shape[0]):  # unrolled: one in-place update per capsule
+        pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0)
+        old = jax.lax.dynamic_slice(grid, pos, bits.shape[1:])
+        grid = jax.lax.dynamic_update_slice(grid, old | bits[s], pos)
+    sil = jax.lax.dynamic_slice(sil_words, (roi.row0, roi.word0), (n_rows, n_words)).T
+    # both counts in one pass: per row they stay below 2**16 (at most 64 words of 32 bits)
+    both = (jax.lax.population_count(grid & sil).astype(jnp.int32)
+            + (jax.lax.population_count(grid).astype(jnp.int32) << 16))
+    per_row = jnp.sum(both, axis=0)  # (rows,)
+    return jnp.sum(per_row & 0xFFFF), jnp.sum(per_row >> 16)
+
+
+def _whole_roi(caps, roi: Roi):
+    s = caps.shape[0]
+    return jnp.full((s,), roi.row0, jnp.int32), jnp.full((s,), roi.word0, jnp.int32)
+
+
+def scanline_counts(caps, sil_words, roi: Roi, n_rows: int, n_words: int, q: int, long_side: int,
+                    height, width):
+    """(Nc, Nm_total) for one capsule set against one bit-packed mask, every capsule's window
+    being the whole ROI (the scorer uses tighter windows: same math, less work).
+
+    caps : (S, 15) float32 records.  sil_words : (H_pad, W_words) uint32 packed mask.
+    The ROI must hold every in-image model pixel. Returns int32 scalars: pixels in model & mask,
+    pixels in model.
+    """
+    win_rows, win_words = _whole_roi(caps, roi)
+    packed = interval_stage(caps, win_rows, n_rows, q, long_side, height, width)
+    return word_stage(packed, sil_words, roi, win_rows, win_words, n_words, n_rows, n_words)
+
+
+def dense_counts(caps, sil_words, roi: Roi, n_rows: int, n_words: int, q: int, long_side: int,
+                 height, width):
+    """Same contract as :func:`scanline_counts`, by testing every ROI pixel against every part."""
+    win_rows, win_words = _whole_roi(caps, roi)
+    packed = dense_interval_stage(caps, win_rows, win_words, n_rows, n_words, q, long_side,
+                                  height, width)
+    return word_stage(packed, sil_words, roi, win_rows, win_words, n_words, n_rows, n_words)
+
+
+def pack_rows(mask: np.ndarray, n_words: int | None = None) -> np.ndarray:
+    """Bit-pack a (H, W) boolean mask into (H, W_words) uint32 (bit b of word k = column 32k+b)."""
+    h, w = mask.shape
+    n_words = n_words or -(-w // WORD)
+    padded = np.zeros((h, n_words * WORD), bool)
+    padded[:, :w] = mask
+    return np.packbits(padded, axis=1, bitorder="little").view("<u4").astype(np.uint32)

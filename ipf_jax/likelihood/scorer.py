@@ -1,0 +1,341 @@
+"""The silhouette likelihood w = Nc / (Ns + Nm), jit-compiled and vmapped over particles.
+
+Pipeline per particle: FK (:mod:`.kinematics`) -> each capsule projected into each camera as the
+hull of its two end discs (:mod:`.camera`, :mod:`.capsule2d`) -> hard raster counts inside a region
+of interest (:mod:`.raster`) -> counts ``(Nc, Ns, Nm)`` per camera. Weights are formed on the host in
+float64 (:func:`weights_from_counts`), so they are identical for any chunking and backend.
+
+Definitions (also in docs/formats.md):
+
+* ``Nc`` model pixels on the mask; ``Ns = |mask| - Nc``; ``Nm = |model| - Nc`` (pixels inside the image).
+* ``w_c = Nc / max(Ns + Nm, 1)``: when model and mask coincide exactly ``w_c = Nc``, the largest value
+  any model can reach on that mask.
+* A camera whose mask is empty on a frame is skipped for that frame (recorded by the tracker); ``w``
+  is the mean of ``w_c`` over the remaining cameras; with none left the frame is missing.
+
+:class:`Scorer` owns the compiled functions and runs them in three stages per chunk of particles,
+because fused into one program XLA recomputes the row intervals once per word:
+
+1. geometry (all cameras): FK, projection, capsule records, and each capsule's extent in each
+   camera, reduced over the chunk (:func:`ipf_jax.likelihood.raster.segment_extent`);
+2. row intervals of every capsule on its window (one camera per call);
+3. bit words, union, AND with the mask, popcount (one camera per call).
+
+Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
+capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, and a
+union grid per camera holding all windows. Their sizes are static and rounded up to buckets that
+only grow (a run compiles a handful of shapes, none per frame); their offsets are data. Only the
+model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
+(possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
+extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
+chunks so memory stays bounded, and a chunk is sharded over all local devices.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from ..body.shape import BodyShape
+from ..errors import IPFError, require
+from ..geometry.camera import Camera, CameraArrays, project_spheres, stack_cameras
+from ..geometry.capsule2d import capsule_outline
+from ..geometry.kinematics import forward_kinematics
+from .raster import (
+    WORD,
+    Roi,
+    dense_interval_stage,
+    interval_stage,
+    pack_rows,
+    quant_scale,
+    segment_extent,
+    word_stage,
+)
+
+KERNELS = ("scanline", "dense")
+
+
+class Observation(NamedTuple):
+    """One frame's masks at scoring resolution, ready for the scorer.
+
+    words : (C, H_pad, W_words) uint32 bit-packed masks.   fg : (C,) int64 foreground counts.
+    bbox : (C, 4) int64 (row_min, row_max, col_min, col_max), -1 rows when empty.
+    sizes : (C, 2) int64 (height, width).
+    """
+
+    words: np.ndarray
+    fg: np.ndarray
+    bbox: np.ndarray
+    sizes: np.ndarray
+
+    @property
+    def active(self) -> np.ndarray:
+        """(C,) bool: cameras whose mask is not empty on this frame."""
+        return self.fg > 0
+
+
+def make_observation(masks: list[np.ndarray]) -> Observation:
+    """Pack per-camera boolean masks (H_c, W_c) (already at scoring resolution)."""
+    require(len(masks) > 0, "no masks")
+    h_pad = max(m.shape[0] for m in masks)
+    n_words = max(-(-m.shape[1] // WORD) for m in masks)
+    words = np.zeros((len(masks), h_pad, n_words), np.uint32)
+    fg = np.zeros(len(masks), np.int64)
+    bbox = np.full((len(masks), 4), -1, np.int64)
+    for c, m in enumerate(masks):
+        m = np.asarray(m).astype(bool)
+        words[c, : m.shape[0]] = pack_rows(m, n_words)
+        fg[c] = int(m.sum())
+        if fg[c]:
+            rows = np.nonzero(m.any(axis=1))[0]
+            cols = np.nonzero(m.any(axis=0))[0]
+            bbox[c] = rows[0], rows[-1], cols[0], cols[-1]
+    sizes = np.array([m.shape for m in masks], np.int64)
+    return Observation(words, fg, bbox, sizes)
+
+
+def project_capsules(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray,
+                     cams: CameraArrays) -> jnp.ndarray:
+    """One particle -> (C, S, 15) float32 capsule records in every camera."""
+    pose = forward_kinematics(q, shape_values, up)
+
+    def one_camera(cam):
+        uv0, r0, in0 = project_spheres(cam, pose.seg_a, pose.seg_r[:, 0])
+        uv1, r1, in1 = project_spheres(cam, pose.seg_b, pose.seg_r[:, 1])
+        return capsule_outline(jnp, uv0, r0, uv1, r1, in0 & in1)
+
+    return jax.vmap(one_camera)(cams)
+
+
+# -- the compiled stages (B particles; batched here, once) --------------------------------------
+def _geometry_impl(q, shape_values, up, cams, long_side):
+    """Stage 1: (B, D) particles -> C arrays (B, S, 15) of capsule records, one per camera, and
+    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max)."""
+    caps = jax.vmap(project_capsules, in_axes=(0, None, None, None))(q, shape_values, up, cams)
+    ext = segment_extent(jnp, caps, long_side)  # (B, C, S, 4)
+    union = jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
+                       ext[..., 3].max(0)], -1)
+    return tuple(caps[:, c] for c in range(caps.shape[1])), union
+
+
+def _intervals_impl(caps, win_rows, height, width, n_win, q, long_side):
+    """Stage 2 (scanline), one camera: (B, S, 15) records -> (B, S, R) packed row intervals."""
+    return jax.vmap(lambda c: interval_stage(c, win_rows, n_win, q, long_side, height, width))(caps)
+
+
+def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
+    """Stage 2 (dense), one camera: the same packed intervals by per-pixel tests."""
+    return jax.vmap(lambda c: dense_interval_stage(c, win_rows, win_words, n_win, n_win_words, q,
+                                                   long_side, height, width))(caps)
+
+
+def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):
+    """Stage 3, one camera: (B, S, R) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
+    roi = Roi(row0, word0)
+    return jax.vmap(lambda p: jnp.stack(word_stage(p, sil_words, roi, win_rows, win_words,
+                                                   n_win_words, n_rows, n_words)))(packed)
+
+
+_geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side",))
+_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q", "long_side"))
+_dense_jit = jax.jit(_dense_impl, static_argnames=("n_win", "n_win_words", "q", "long_side"))
+_words_jit = jax.jit(_words_impl, static_argnames=("n_win_words", "n_rows", "n_words"))
+
+
+class Sizes(NamedTuple):
+    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words."""
+
+    win_rows: int
+    win_words: int
+    rows: int
+    words: int
+
+
+class Windows(NamedTuple):
+    """Where the windows sit in one frame (host int32 arrays; data, not compile keys).
+
+    row0, word0 : (C,) origin of each camera's union grid.
+    win_rows, win_words : (C, S) origin of each capsule's window.
+    """
+
+    row0: np.ndarray
+    word0: np.ndarray
+    win_rows: np.ndarray
+    win_words: np.ndarray
+
+
+def _round_up(n: int, step: int, cap: int) -> int:
+    return min(cap, -(-max(n, 1) // step) * step)
+
+
+def _grow(old: int, need: int, step: int, cap: int) -> int:
+    """A bucket that holds ``need``: unchanged when it already does, else at least 25 % larger than
+    before, so a person walking towards a camera costs a few compiles, not one every few frames."""
+    if need <= old:
+        return old
+    return _round_up(max(need, old + old // 4), step, cap)
+
+
+class Scorer:
+    """Batched silhouette scoring for fixed cameras and body shape.
+
+    cameras : cameras at scoring resolution (C of them).  shape : BodyShape.
+    up : (3, 3) canonical-to-world rotation.  kernel : "scanline" or "dense".
+    chunk : particles per compiled call (static; rounded up to a multiple of the device count).
+    devices : devices to shard each chunk's particle axis over (default: all local devices).
+    """
+
+    def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
+                 kernel: str = "scanline", chunk: int = 512, devices=None):
+        require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
+        require(chunk >= 1, "chunk must be >= 1")
+        self.cameras = list(cameras)
+        self.cams = stack_cameras(self.cameras)
+        self.set_shape(shape)
+        self.up = np.asarray(up, np.float32)
+        self.kernel = kernel
+        self.heights = np.array([c.height for c in self.cameras], np.int32)
+        self.widths = np.array([c.width for c in self.cameras], np.int32)
+        self.long_side = int(max(self.heights.max(), self.widths.max()))
+        self.q = quant_scale(int(self.heights.max()), int(self.widths.max()))
+        self.h_pad = int(self.heights.max())
+        self.w_words = int(-(-self.widths.max() // WORD))
+        devices = list(jax.local_devices() if devices is None else devices)
+        self.chunk = -(-int(chunk) // len(devices)) * len(devices)
+        # one device: plain arrays; several: the particle axis is split across them (GSPMD)
+        mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
+        self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
+        self._whole = None if mesh is None else NamedSharding(mesh, PartitionSpec())
+        self.sizes: list[Sizes] = []  # per camera, set by :meth:`plan`
+        self.evaluations = 0  # particles scored so far (likelihood evaluations)
+
+    def set_shape(self, shape: BodyShape) -> None:
+        self.shape = shape
+        self.shape_values = np.asarray(shape.values, np.float32)
+
+    def _put(self, x, split: bool = False):
+        if self._split is None:
+            return x
+        return jax.device_put(x, self._split if split else self._whole)
+
+    def _chunks(self, particles: np.ndarray):
+        n = len(particles)
+        b = self.chunk
+        for start in range(0, n, b):
+            block = particles[start:start + b]
+            if len(block) < b:  # pad with copies of a real particle: extents stay the same
+                block = np.concatenate([block, np.repeat(block[:1], b - len(block), axis=0)])
+            yield start, block.astype(np.float32)
+
+    # -- stage 1 and the window plan -------------------------------------------------------------
+    def geometry(self, particles: np.ndarray):
+        """Stage 1 for every chunk: per-camera capsule records (kept on device) and the (C, S, 4)
+        int64 extent of every capsule over all particles."""
+        caps, exts = [], []
+        for _, block in self._chunks(particles):
+            c, ext = _geometry_jit(self._put(block, True), self.shape_values, self.up, self.cams,
+                                   long_side=self.long_side)
+            caps.append(c)
+            exts.append(ext)
+        ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
+        union = np.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
+                          ext[..., 3].max(0)], -1)
+        return caps, union
+
+    def plan(self, ext: np.ndarray, full: bool = False) -> Windows:
+        """Windows for capsule extents (C, S, 4); grows :attr:`sizes` (one per camera) when they
+        do not fit. ``full``: every window is the whole image (the counts do not depend on it)."""
+        n_cam, n_seg = ext.shape[:2]
+        if full:
+            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words)] * n_cam
+            zero = np.zeros(n_cam, np.int32)
+            return Windows(zero, zero, np.zeros((n_cam, n_seg), np.int32),
+                           np.zeros((n_cam, n_seg), np.int32))
+        h, w = self.heights[:, None], self.widths[:, None]
+        seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
+        r_lo, r_hi = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
+        w_lo, w_hi = np.clip(ext[..., 2], 0, w - 1) // WORD, np.clip(ext[..., 3], 0, w - 1) // WORD
+
+        def span(lo, hi):
+            """Per camera: largest window, union of the visible capsules (first, size)."""
+            win = np.max(np.where(seen, hi - lo + 1, 1), axis=1)
+            g_lo = np.where(seen, lo, np.iinfo(np.int64).max).min(1)
+            g_hi = np.where(seen, hi, -1).max(1)
+            g_lo = np.where(g_hi >= 0, g_lo, 0)
+            return win, np.maximum(g_hi - g_lo + 1, 1), g_lo
+
+        win_r, grid_r, g_row = span(r_lo, r_hi)
+        win_w, grid_w, g_word = span(w_lo, w_hi)
+        # per camera (a camera nearer the person needs bigger windows); buckets only grow;
+        # rows in steps of 8 (windows) and 16 (grid), words exactly, growing by >= 25 %
+        sizes = []
+        for c in range(n_cam):
+            old = self.sizes[c] if len(self.sizes) == n_cam else Sizes(0, 0, 0, 0)
+            n_win = _grow(old.win_rows, int(win_r[c]), 8, self.h_pad)
+            n_win_words = _grow(old.win_words, int(win_w[c]), 1, self.w_words)
+            n_rows = _grow(old.rows, max(n_win, int(grid_r[c])), 16, self.h_pad)
+            n_words = _grow(old.words, max(n_win_words, int(grid_w[c])), 2, self.w_words)
+            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
+        self.sizes = sizes
+        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*sizes))
+        row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
+        word0 = np.minimum(g_word[:, None], self.w_words - n_words)
+        # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
+        win_rows = np.clip(np.where(seen, r_lo, row0), row0, row0 + n_rows - n_win)
+        win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
+        return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
+                       win_rows.astype(np.int32), win_words.astype(np.int32))
+
+    # -- scoring ---------------------------------------------------------------------------------
+    def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False) -> np.ndarray:
+        """(N, C, 3) int64 counts (Nc, Ns, Nm) for (N, D) particles."""
+        particles = np.asarray(particles)
+        require(particles.ndim == 2 and particles.shape[0] > 0, "particles must be a non-empty (N, D) array")
+        if not np.all(np.isfinite(particles)):
+            raise IPFError("particles contain NaN or inf")
+        require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
+        if obs.words.shape[1:] != (self.h_pad, self.w_words):
+            raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
+        caps, ext = self.geometry(particles)
+        win = self.plan(ext, full=full_roi)
+        sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
+        pending = []
+        for (start, _), chunk_caps in zip(self._chunks(particles), caps):
+            per_cam = []
+            for c, cap in enumerate(chunk_caps):
+                h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
+                if self.kernel == "scanline":
+                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
+                                            long_side=self.long_side)
+                else:
+                    packed = _dense_jit(cap, win.win_rows[c], win.win_words[c], h, w,
+                                        n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
+                                        long_side=self.long_side)
+                per_cam.append(_words_jit(packed, sil[c], win.row0[c], win.word0[c], win.win_rows[c],
+                                          win.win_words[c], n_win_words=sz.win_words,
+                                          n_rows=sz.rows, n_words=sz.words))
+            pending.append((start, per_cam))
+        out = np.empty((len(particles), len(self.cameras), 2), np.int64)
+        for start, per_cam in pending:  # everything is dispatched before the first result is read
+            take = min(self.chunk, len(particles) - start)
+            out[start:start + take] = np.stack([np.asarray(r) for r in per_cam], 1)[:take]
+        self.evaluations += len(particles)
+        nc, nm_total = out[..., 0], out[..., 1]
+        return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)
+
+
+def weights_from_counts(counts: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, C, 3) counts and (C,) active cameras -> (w (N,), w_cam (N, C)) float64.
+
+    Inactive cameras have ``w_cam = nan`` and are left out of the mean.
+    """
+    counts = np.asarray(counts, np.float64)
+    nc, ns, nm = counts[..., 0], counts[..., 1], counts[..., 2]
+    w_cam = nc / np.maximum(ns + nm, 1.0)
+    w_cam = np.where(active[None, :], w_cam, np.nan)
+    if not np.any(active):
+        return np.full(len(counts), np.nan), w_cam
+    return np.nanmean(w_cam[:, active], axis=1), w_cam

@@ -1,0 +1,311 @@
+"""``ipf-jax bench``: throughput of the measure step (JAX and NumPy) and tracking seconds per frame.
+
+The fixed scene is real: PARSEC bodytrack ``sequenceB_2`` frame 0 (its 4 calibrated cameras and
+foreground masks, scaled to each scoring resolution; "1 camera" is Camera1) and N poses around the
+person: our body fitted to bodytrack's ``InitialPose.txt`` (:func:`ipf_jax.analysis.bodytrack.fit_our_pose`)
+plus seeded Gaussian noise of one frame of the filters' default noise rates at 20 Hz, like a
+filter's cloud. Every backend scores the same poses (the NumPy ones a prefix of them).
+
+The measure step is the whole likelihood: FK, projection, raster, counts and weights. Backends:
+
+* ``jax-scanline``, ``jax-dense``: :class:`ipf_jax.likelihood.scorer.Scorer` with either kernel;
+* ``numpy-scanline``: :mod:`ipf_jax.reference.scanline`, the vectorised NumPy baseline;
+* ``numpy-reference``: :mod:`ipf_jax.reference.likelihood`, the per-pixel NumPy oracle.
+
+Each record times one call on warm code: the first call (compilation, or loading from the
+persistent cache) is timed separately as ``compile_s``; then the median of repeats (the scorer
+returns host arrays, so every timed call has finished). Peak RSS is the process's high-water mark
+over that record alone (reset through ``/proc/self/clear_refs`` where Linux allows it). Tracking
+records time frame 1 of ``sequenceB_2`` (frame 0 starts from ``InitialPose.txt``), end to end.
+
+Records are the issue's fields (``backend, height, width, cameras, particles, particles_per_s,
+compile_s, peak_rss_mb, device_kind, jax_version``) plus ``task`` ("measure" or "track"),
+``seconds``, ``repeats``, ``particles_per_cpu_s`` and the 1-minute ``load_average`` (on a shared
+machine other processes take cores: the CPU-time rate is the one they disturb least), and
+``machine``. Tracking records add ``filter``, ``seconds_per_frame``, ``cpu_seconds_per_run`` (process CPU
+time of the whole two-frame run, all threads: an upper bound of the single-threaded cost of frame 1)
+and ``joint_distance_to_peer_m`` (the 12 limb joints against bodytrack's own frame-1 estimate).
+"""
+from __future__ import annotations
+
+import gc
+import os
+import platform
+import tempfile
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from .errors import IPFError, require
+
+BACKENDS = ("jax-scanline", "jax-dense", "numpy-scanline", "numpy-reference")
+DATASET = "parsec_bodytrack/sequenceB_2"
+PEER_POSES = "parsec_bodytrack/bodytrack_poses_sequenceB_2_4cams_2frames_4000p_5layers_serial.txt"
+NOISE_FPS = 20.0
+
+
+class Scene(NamedTuple):
+    """cameras : C cameras at scoring size;  masks : C (H, W) bool;  particles : (N, D);
+    shape : the fitted BodyShape;  up : (3, 3);  init_pose : (D,) the fitted pose."""
+
+    cameras: list
+    masks: list
+    particles: np.ndarray
+    shape: object
+    up: np.ndarray
+    init_pose: np.ndarray
+
+
+def initial_pose(data: Path):
+    """Our pose and height fitted to bodytrack's InitialPose.txt of ``data``."""
+    from .analysis.bodytrack import fit_our_pose, read_body_shape, read_pose
+    from .analysis.bodytrack.kinematics import bodytrack_points
+
+    pose = read_pose(data / "InitialPose.txt")[0]
+    fit = fit_our_pose(bodytrack_points(pose, read_body_shape(data / "BodyShapeParameters.txt")))
+    return fit.q, fit.height_m
+
+
+def load_scene(data: Path, width: int, n_cameras: int, n: int, *, seed: int = 0) -> Scene:
+    """The fixed benchmark scene at a scoring width (height follows the cameras' aspect)."""
+    from .body import default_shape
+    from .data.dataset import open_dataset
+    from .data.silhouette import resize_mask
+    from .filters.base import default_noise_rates
+    from .geometry.world import up_rotation
+
+    ds = open_dataset(data)
+    require(n_cameras <= len(ds.cameras), f"the data set has {len(ds.cameras)} cameras", data)
+    cams = [c.scaled(width / c.width) for c in ds.cameras[:n_cameras]]
+    masks = [resize_mask(m, c.height, c.width) for m, c in zip(ds.masks(ds.frames[0]), cams)]
+    q0, height = initial_pose(data)
+    rng = np.random.default_rng(seed)
+    particles = q0 + rng.normal(size=(n, len(q0))) * default_noise_rates() / NOISE_FPS
+    return Scene(cams, masks, particles, default_shape().scaled_to(height), up_rotation("+z"), q0)
+
+
+def measure_step(backend: str, scene: Scene, *, chunk: int | None = None):
+    """The full measure step of a backend: (N, D) particles -> (N,) weights."""
+    from .likelihood.scorer import Scorer, make_observation, weights_from_counts
+
+    obs = make_observation(scene.masks)
+    if backend.startswith("jax-"):
+        kw = {} if chunk is None else {"chunk": chunk}
+        scorer = Scorer(scene.cameras, scene.shape, scene.up, kernel=backend[4:], **kw)
+        return lambda p: weights_from_counts(scorer.counts(p, obs), obs.active)[0]
+    if backend == "numpy-scanline":
+        from .reference import scanline as ref
+    else:
+        from .reference import likelihood as ref
+    return lambda p: weights_from_counts(ref.counts(p, scene.shape.values, scene.up, scene.cameras,
+                                                    scene.masks), obs.active)[0]
+
+
+# -- process facts ---------------------------------------------------------------------------------
+def _reset_peak() -> bool:
+    gc.collect()
+    try:
+        Path("/proc/self/clear_refs").write_text("5")  # Linux: VmHWM := VmRSS
+        return True
+    except OSError:
+        return False
+
+
+def _peak_mb() -> float:
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def machine() -> dict:
+    """The host, as recorded with every result."""
+    import jax
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    return {"cpu": cpu, "cores": os.cpu_count(), "memory_gb": round(mem, 1),
+            "os": platform.platform(), "python": platform.python_version(),
+            "numpy": np.__version__, "jax_devices": len(jax.devices())}
+
+
+def _load_average() -> float | None:
+    """1-minute load average (other processes compete for the cores: recorded with each result)."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except OSError:
+        return None
+
+
+def _common() -> dict:
+    import jax
+
+    return {"device_kind": jax.devices()[0].device_kind, "jax_version": jax.__version__}
+
+
+# -- the two kinds of record -----------------------------------------------------------------------
+def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
+                  budget_s: float = 60.0, chunk: int | None = None) -> tuple[dict, np.ndarray]:
+    """Time the measure step of ``backend`` on the first ``n`` poses -> (record, weights)."""
+    exact_peak = _reset_peak()
+    particles = scene.particles[:n]
+    fn = measure_step(backend, scene, chunk=chunk)
+    t0 = time.perf_counter()
+    weights = fn(particles)  # compiles (JAX), fixes the window sizes
+    first = time.perf_counter() - t0
+    times, cpu = [], []
+    load = _load_average()
+    while len(times) < repeats and (not times or sum(times) < budget_s):
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn(particles)
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    med = float(np.median(times))
+    h, w = scene.masks[0].shape
+    rec = {"backend": backend, "height": h, "width": w, "cameras": len(scene.cameras),
+           "particles": n, "particles_per_s": round(n / med, 1),
+           "compile_s": round(max(first - med, 0.0), 3) if backend.startswith("jax-") else None,
+           "peak_rss_mb": round(_peak_mb(), 1), **_common(),
+           "task": "measure", "seconds": round(med, 5), "repeats": len(times),
+           "particles_per_cpu_s": round(n / float(np.median(cpu)), 1), "load_average": load,
+           "peak_rss_exact": exact_peak}
+    return rec, weights
+
+
+def bench_track(data: Path, filter_name: str, width: int, *, runs: int = 2, seed: int = 0,
+                peer: Path | None = None, progress: bool = False) -> dict:
+    """Seconds for frame 1 of ``data`` (frame 0 starts from InitialPose.txt), median of the runs
+    after the first (which also compiles), and the estimate's joint distance to the peer's."""
+    from .data.dataset import open_dataset
+    from .tracking.tracker import TrackSettings, track
+
+    exact_peak = _reset_peak()
+    ds = open_dataset(data)
+    q0, height = initial_pose(data)
+    settings = TrackSettings(filter=filter_name, resolution=width, init_pose=q0, height_m=height,
+                             seed=seed, checkpoint_every=1000)
+    seconds, cpu, res = [], [], None
+    load = _load_average()
+    for _ in range(runs + 1):
+        c0 = time.process_time()
+        with tempfile.TemporaryDirectory() as out:
+            res = track(ds, out, settings, frames=ds.frames[:2], progress=progress)
+        cpu.append(time.process_time() - c0)
+        seconds.append(res.run["per_frame"][1]["seconds"])
+    med = float(np.median(seconds[1:]))
+    evals = int(res.run["per_frame"][1]["evaluations"])
+    scoring = res.run["settings"]["scoring_sizes"][0]
+    rec = {"backend": "jax-scanline", "height": scoring[1], "width": scoring[0],
+           "cameras": len(ds.cameras), "particles": evals,
+           "particles_per_s": round(evals / med, 1), "compile_s": round(max(seconds[0] - med, 0.0), 3),
+           "peak_rss_mb": round(_peak_mb(), 1), **_common(),
+           "task": "track", "filter": filter_name, "seconds_per_frame": round(med, 4),
+           "runs": runs, "cpu_seconds_per_run": round(float(np.median(cpu[1:])), 4),
+           "load_average": load, "peak_rss_exact": exact_peak}
+    if peer is not None and peer.exists():
+        from .analysis.bodytrack import mean_joint_distance, peer_joints
+
+        theirs, _ = peer_joints(peer, data / "BodyShapeParameters.txt")
+        rec["joint_distance_to_peer_m"] = round(mean_joint_distance(res.joints[1], theirs[1]), 4)
+    return rec
+
+
+def rank_agreement(a: np.ndarray, b: np.ndarray) -> float:
+    """Spearman rank correlation of two weight vectors (ties broken by order)."""
+    ra, rb = np.argsort(np.argsort(a)), np.argsort(np.argsort(b))
+    return float(np.corrcoef(ra, rb)[0, 1])
+
+
+# -- the command -----------------------------------------------------------------------------------
+def _ints(text: str) -> list[int]:
+    try:
+        return [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise IPFError(f"expected comma-separated integers, got {text!r}") from None
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("bench", help="throughput of the measure step (JAX vs NumPy) and tracking s/frame")
+    p.add_argument("--json", required=True, help="output file: a JSON list of records")
+    p.add_argument("--data", help=f"bodytrack sequence folder (default: <shared data>/{DATASET})")
+    p.add_argument("--quick", action="store_true", help="small subset: 320x240, 1 camera, 1024 particles")
+    p.add_argument("--backends", default=",".join(BACKENDS))
+    p.add_argument("--widths", default="160,320,640", help="scoring widths (height: 3/4)")
+    p.add_argument("--cameras", default="1,4")
+    p.add_argument("--particles", default="1024,6561,16384", help="particle counts (JAX backends)")
+    p.add_argument("--numpy-particles", type=int, default=512, help="poses for numpy-scanline")
+    p.add_argument("--reference-particles", type=int, default=8, help="poses for numpy-reference")
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--budget", type=float, default=60.0, help="stop repeating after this many s")
+    p.add_argument("--chunk", type=int, help="particles per compiled call (default: the scorer's)")
+    p.add_argument("--track-widths", default="320",
+                   help="scoring widths for the tracking records (ipf 6561 and apf 4000x5); '' = none")
+    p.add_argument("--cold", action="store_true", help="disable the persistent compilation cache")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from tqdm import tqdm
+
+    from .data.runfiles import check_writable, write_json_atomic
+    from .paths import shared_data_dir
+
+    data = Path(args.data) if args.data else shared_data_dir() / DATASET
+    require((data / "InitialPose.txt").exists(), "not a bodytrack sequence (no InitialPose.txt)", data)
+    out = Path(args.json)
+    check_writable(out.parent if str(out.parent) else Path("."))
+    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
+    bad = [b for b in backends if b not in BACKENDS]
+    require(not bad, f"unknown backend(s) {', '.join(bad)} (choose from {', '.join(BACKENDS)})")
+    widths, cams, counts = _ints(args.widths), _ints(args.cameras), _ints(args.particles)
+    track_widths = _ints(args.track_widths)
+    if args.quick:
+        widths, cams, counts, track_widths = [320], [1], [1024], []
+    require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
+    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
+            "cameras, particles and repeats must be >= 1")
+    if args.cold:
+        import jax
+
+        jax.config.update("jax_enable_compilation_cache", False)
+    host = machine()
+    records: list[dict] = []
+    jobs = [(w, c) for w in widths for c in cams]
+    bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths), desc="bench", unit="case")
+    for width, n_cam in jobs:
+        scene = load_scene(data, width, n_cam, max(counts + [args.numpy_particles]))
+        for backend in backends:
+            sizes = {"numpy-scanline": [args.numpy_particles],
+                     "numpy-reference": [args.reference_particles]}.get(backend, counts)
+            for n in sizes:
+                rec, _ = bench_measure(backend, scene, n, repeats=args.repeats, budget_s=args.budget,
+                                       chunk=args.chunk)
+                records.append({**rec, "machine": host})
+                write_json_atomic(out, records)  # partial results survive an interruption
+                bar.set_postfix(last=f"{backend} {width} {n_cam}cam {n}: {rec['particles_per_s']:.0f}/s")
+            bar.update()
+    peer = data.parent / Path(PEER_POSES).name
+    for width in track_widths:
+        for filt in ("ipf", "apf"):
+            rec = bench_track(data, filt, width, peer=peer)
+            records.append({**rec, "machine": host})
+            write_json_atomic(out, records)
+            bar.set_postfix(last=f"track {filt} {width}: {rec['seconds_per_frame']} s/frame")
+            bar.update()
+    bar.close()
+    print(f"wrote {len(records)} records to {out}")
+    return 0

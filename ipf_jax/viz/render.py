@@ -1,0 +1,200 @@
+"""``ipf-jax render RUN_DIR --out FILE.mp4|FILE.png|DIR``: the fitted model over every frame.
+
+Reads the run (poses.csv, run.json's shape, up axis, per-frame weights), reopens its dataset
+(``run.json`` ``dataset``, or ``--dataset``) and draws each frame's pose over each camera's image
+(silhouette outlined) or mask (likelihood pixel sets coloured), cameras side by side (see
+:mod:`ipf_jax.viz.overlay`). Writes an MP4 (``mp4v``) or AVI (``MJPG``) video, one PNG for a single
+frame, or a folder of ``frameNNNNN.png``.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from ..errors import IPFError, require
+
+VIDEO_CODECS = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG"}
+IMAGE_EXT = (".png", ".jpg", ".jpeg")
+MIN_SIDE, MAX_SIDE = 480, 960  # default view size: the camera's, kept legible and not too large
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "render", help="overlay video/images of a tracked run: capsules and skeleton over each "
+        "camera's frames or masks, cameras side by side",
+        description="Draw the run's fitted model over each camera's images (silhouette outlined) "
+                    "or masks (silhouette-only grey, overlap blue, model-only orange), with the "
+                    "frame's weight. --out FILE.mp4|.avi writes a video, FILE.png one frame, "
+                    "anything else a folder of PNGs.")
+    p.add_argument("run_dir", help="a folder written by ipf-jax track")
+    p.add_argument("--out", required=True, help="FILE.mp4 | FILE.avi | FILE.png (one frame) | DIR")
+    p.add_argument("--dataset", help="dataset folder (default: the one named in run.json)")
+    p.add_argument("--cameras", help="comma-separated camera names or 1-based numbers (default all)")
+    bg = p.add_mutually_exclusive_group()
+    bg.add_argument("--images", action="store_true", help="draw over camera images (default when "
+                    "the dataset has them)")
+    bg.add_argument("--masks", action="store_true", help="draw over the silhouette masks")
+    p.add_argument("--frames", help="A:B (B excluded) or A: frame numbers of the run to draw")
+    p.add_argument("--size", type=int, help=f"long side of each camera view in pixels (default: "
+                   f"the camera's, within {MIN_SIDE}..{MAX_SIDE})")
+    p.add_argument("--fps", type=float, help="video frame rate (default: the run's)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+    return p
+
+
+def _pick_frames(frames: np.ndarray, text: str | None) -> np.ndarray:
+    from ..data.frames import parse_frames, select_frames
+
+    if not text:
+        return frames
+    return np.array(select_frames(frames.tolist(), parse_frames(text)))
+
+
+def pick_cameras(cameras, text: str | None, option: str = "--cameras") -> list[int]:
+    """Indices of the cameras named in ``text`` (comma-separated names or 1-based numbers);
+    ``option`` names the setting in the error."""
+    if not text:
+        return list(range(len(cameras)))
+    names = [c.name for c in cameras]
+    out = []
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        if item in names:
+            out.append(names.index(item))
+        elif item.isdigit() and 1 <= int(item) <= len(cameras):
+            out.append(int(item) - 1)
+        else:
+            raise IPFError(f"{option}: no camera {item!r} (cameras: {', '.join(names)}, or 1.."
+                           f"{len(cameras)})")
+    return out
+
+
+def _dataset_path(dataset, meta: dict, run_dir: Path) -> Path:
+    if dataset:
+        return Path(dataset)
+    name = meta.get("dataset")
+    require(isinstance(name, str) and name != "", "run.json names no dataset: give --dataset",
+            run_dir / "run.json")
+    path = Path(name)
+    require(path.exists(), f"the run's dataset {name} is not found from here: give --dataset",
+            run_dir / "run.json")
+    return path
+
+
+class _Sink:
+    """Where composed frames go: a video writer, one image, or a folder of PNGs."""
+
+    def __init__(self, out: Path, fps: float, n_frames: int):
+        self.out, self.fps = out, fps
+        ext = out.suffix.lower()
+        self.kind = "video" if ext in VIDEO_CODECS else "image" if ext in IMAGE_EXT else "folder"
+        if self.kind == "image":
+            require(n_frames == 1, f"a {ext} output holds one frame, {n_frames} selected: use "
+                    "--frames A, or a folder or video output", out)
+        target = out if self.kind == "folder" else out.parent
+        try:
+            target.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise IPFError(f"cannot create output folder ({e})", target) from None
+        self.writer = None
+        self.written = 0
+
+    def write(self, frame: int, image: np.ndarray) -> None:
+        if self.kind == "video":
+            if self.writer is None:
+                fourcc = cv2.VideoWriter_fourcc(*VIDEO_CODECS[self.out.suffix.lower()])
+                self.writer = cv2.VideoWriter(str(self.out), fourcc, self.fps,
+                                              (image.shape[1], image.shape[0]))
+                require(self.writer.isOpened(), "OpenCV cannot write this video (codec or path)",
+                        self.out)
+            self.writer.write(image)
+        else:
+            path = self.out if self.kind == "image" else self.out / f"frame{frame:05d}.png"
+            require(cv2.imwrite(str(path), image), "cannot write image", path)
+        self.written += 1
+
+    def close(self) -> None:
+        if self.writer is not None:
+            self.writer.release()
+
+
+def render_run(run_dir: str | Path, out: str | Path, *, dataset: str | Path | None = None,
+               cameras: str | None = None, background: str | None = None, frames: str | None = None,
+               size: int | None = None, fps: float | None = None, progress: bool = True) -> dict:
+    """Render a run (see module doc). ``background``: "images", "masks" or None (images when the
+    dataset has them). Returns a summary: output, kind, frames written, size, mean weight."""
+    from ..data.dataset import open_dataset
+    from ..data.rundir import read_run
+    from ..geometry.world import up_rotation
+    from .overlay import frame_overlay
+
+    run_dir, out = Path(run_dir), Path(out)
+    run = read_run(run_dir)
+    require(run.poses is not None, "the run has no poses.csv (needed to draw the model)", run_dir)
+    require(run.shape is not None, "run.json has no 'shape' (needed to draw the model)",
+            run_dir / "run.json")
+    ds = open_dataset(_dataset_path(dataset, run.meta, run_dir))
+    chosen = _pick_frames(run.frames, frames)
+    absent = sorted(set(chosen.tolist()) - set(ds.frames))
+    require(not absent, f"frame(s) {absent[:5]} of the run are not in the dataset "
+            f"({min(ds.frames)}..{max(ds.frames)}): is it the run's dataset?", ds.path)
+    cams = pick_cameras(ds.cameras, cameras)
+    if background is None:
+        background = "images" if ds.images(int(chosen[0])) is not None else "masks"
+    require(background in ("images", "masks"), f"unknown background {background!r}")
+    step = int(np.min(np.diff(run.frames))) if len(run.frames) > 1 else 1
+    rate = fps or run.fps / step
+    require(rate > 0, f"--fps must be > 0 (got {rate})")
+    if size is None:
+        size = int(np.clip(max(max(ds.cameras[c].width, ds.cameras[c].height) for c in cams),
+                           MIN_SIDE, MAX_SIDE))
+    require(32 <= size <= 4096, f"--size must be 32..4096 px (got {size})")
+    per_frame = {r.get("frame"): r for r in run.meta.get("per_frame", []) if isinstance(r, dict)}
+    U = up_rotation(run.up_axis)
+    row_of = {int(f): i for i, f in enumerate(run.frames)}
+    sink = _Sink(out, rate, len(chosen))
+    weights = []
+    try:
+        for frame in tqdm(chosen.tolist(), desc=f"render {run_dir.name}", unit="frame",
+                          disable=not progress):
+            masks = ds.masks(frame)
+            if background == "images":
+                images = ds.images(frame)
+                require(images is not None, f"the dataset has no camera image for frame {frame}: "
+                        "use --masks", ds.path)
+                bgs, outline = [images[c] for c in cams], [masks[c] for c in cams]
+            else:
+                bgs, outline = [masks[c] for c in cams], None
+            rec = per_frame.get(frame, {})
+            q = run.poses[row_of[frame]]
+            status = None if np.all(np.isfinite(q)) else "missing"
+            if rec.get("status") in ("init", "reinit"):
+                status = rec["status"]
+            w = rec.get("weight")
+            if w is not None:
+                weights.append(w)
+            image = frame_overlay(bgs, [ds.cameras[c] for c in cams], q, run.shape, U, w, frame,
+                                  masks=outline, long_side=size, status=status,
+                                  legend=background == "masks", even=sink.kind == "video")
+            sink.write(frame, image)
+    finally:
+        sink.close()
+    return {"out": str(out), "kind": sink.kind, "frames": sink.written, "background": background,
+            "cameras": [ds.cameras[c].name for c in cams], "view_long_side": size, "fps": rate,
+            "mean_weight": float(np.mean(weights)) if weights else None}
+
+
+def run(args: argparse.Namespace) -> int:
+    background = "images" if args.images else "masks" if args.masks else None
+    summary = render_run(args.run_dir, args.out, dataset=args.dataset, cameras=args.cameras,
+                         background=background, frames=args.frames, size=args.size, fps=args.fps,
+                         progress=not args.quiet)
+    what = {"video": f"a {summary['fps']:g} fps video", "image": "one image",
+            "folder": "PNG files"}[summary["kind"]]
+    print(f"drew {summary['frames']} frame(s) of {', '.join(summary['cameras'])} over "
+          f"{summary['background']} into {what}: {summary['out']}")
+    return 0
