@@ -33,9 +33,8 @@ from ipf_jax.body import default_shape, load_limits
 from ipf_jax.body.model import DOF_INDEX, POINT_INDEX
 from ipf_jax.data.calibration import read_bodytrack_cal
 from ipf_jax.errors import IPFError
+from ipf_jax.geometry.host import forward_kinematics, project_points
 from ipf_jax.geometry.world import up_rotation
-from ipf_jax.reference.camera import project_points
-from ipf_jax.reference.kinematics import forward_kinematics
 
 PEER = "bodytrack_poses_sequenceB_2_4cams_2frames_4000p_5layers_serial.txt"
 LENGTH_TOL = 1e-9  # metres: cone lengths are exact up to float64 rounding

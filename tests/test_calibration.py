@@ -23,9 +23,9 @@ from ipf_jax.data.calibration import (
 )
 from ipf_jax.errors import IPFError
 from ipf_jax.geometry import camera as jcam
+from ipf_jax.geometry import host as ref
 from ipf_jax.geometry.world import detect_up_axis
 from ipf_jax.reference import PIXEL_ATOL
-from ipf_jax.reference import camera as ref
 
 BODYTRACK_CENTRES = np.array([[2.761, 2.547, 2.539], [-2.121, 2.446, 2.578],
                               [-2.033, -1.872, 2.528], [2.854, -1.892, 2.535]])

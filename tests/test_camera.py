@@ -4,10 +4,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from ipf_jax.geometry import host as ref
 from ipf_jax.geometry.camera import Camera, project_points, stack_cameras
 from ipf_jax.geometry.capsule2d import capsule_outline
 from ipf_jax.reference import PIXEL_ATOL
-from ipf_jax.reference import camera as ref
 from ipf_jax.viz.synthetic import look_at_camera
 
 

@@ -11,11 +11,6 @@ import json
 import jax
 import numpy as np
 import pytest
-from ipf_jax.likelihood.scorer import (
-    Scorer,
-    make_observation,
-    weights_from_counts,
-)
 
 from ipf_jax.body.limits import load_limits
 from ipf_jax.body.model import DOF_INDEX, LIMB_JOINTS, NUM_DOF, POINT_NAMES
@@ -26,6 +21,7 @@ from ipf_jax.filters import apf, registry
 from ipf_jax.filters.base import default_noise_rates
 from ipf_jax.filters.selection import systematic
 from ipf_jax.geometry.world import up_rotation
+from ipf_jax.likelihood.scorer import Scorer, make_observation, weights_from_counts
 from ipf_jax.tracking.tracker import Tracker, TrackSettings
 from ipf_jax.viz import synthetic as syn
 

@@ -5,10 +5,10 @@ import pytest
 
 from ipf_jax.body import DOF_NAMES, default_shape, load_limits
 from ipf_jax.body.model import POINT_INDEX
+from ipf_jax.geometry import host as ref
 from ipf_jax.geometry.kinematics import forward_kinematics
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.reference import GEOMETRY_ATOL_M
-from ipf_jax.reference import kinematics as ref
 
 SHAPE = default_shape()
 P = POINT_INDEX

@@ -2,14 +2,10 @@
 import chex
 import numpy as np
 import pytest
-from ipf_jax.likelihood.scorer import (
-    Scorer,
-    make_observation,
-    weights_from_counts,
-)
 
 from ipf_jax.body import default_shape
 from ipf_jax.geometry.world import up_rotation
+from ipf_jax.likelihood.scorer import Scorer, make_observation, weights_from_counts
 from ipf_jax.reference import likelihood as ref
 from ipf_jax.viz import synthetic as syn
 

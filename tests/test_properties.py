@@ -25,21 +25,17 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from ipf_jax.likelihood.raster import (
-    Roi,
-    dense_counts,
-    pack_rows,
-    scanline_counts,
-)
-from ipf_jax.likelihood.scorer import weights_from_counts
 
 from ipf_jax.body import default_shape
 from ipf_jax.body.model import DOF_INDEX
 from ipf_jax.geometry.camera import Camera
 from ipf_jax.geometry.capsule2d import CAP_FIELDS, capsule_outline
 from ipf_jax.geometry.world import up_rotation
+from ipf_jax.likelihood.model_mask import model_mask
+from ipf_jax.likelihood.raster import Roi, dense_counts, pack_rows, scanline_counts
+from ipf_jax.likelihood.scorer import weights_from_counts
 from ipf_jax.reference import likelihood as ref
-from ipf_jax.reference.raster import counts_from_caps, model_mask
+from ipf_jax.reference.raster import counts_from_caps
 from ipf_jax.viz import synthetic as syn
 
 H_MAX, W_MAX = 60, 80  # the compiled size; every image fits in it

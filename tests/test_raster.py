@@ -4,6 +4,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+
+from ipf_jax.geometry.capsule2d import capsule_outline
+from ipf_jax.likelihood.model_mask import model_mask
 from ipf_jax.likelihood.raster import (
     WORD,
     Roi,
@@ -16,9 +19,7 @@ from ipf_jax.likelihood.raster import (
     segment_extent,
     word_stage,
 )
-
-from ipf_jax.geometry.capsule2d import capsule_outline
-from ipf_jax.reference.raster import counts_from_caps, model_mask
+from ipf_jax.reference.raster import counts_from_caps
 
 
 def random_caps(rng, n_sets, height, width, n_seg=17):

@@ -72,8 +72,8 @@ def test_mask_overlay_colours_show_the_fit(scene):
 
 
 def test_model_silhouette_is_the_scoring_raster(scene):
-    from ipf_jax.reference.likelihood import project_capsules
-    from ipf_jax.reference.raster import model_mask
+    from ipf_jax.geometry.host import project_capsules
+    from ipf_jax.likelihood.model_mask import model_mask
 
     cam = scene["cams"][0].scaled(3.0)
     caps = project_capsules(scene["q"][1], SHAPE.values, up_rotation("+z"), [cam])[0]

@@ -20,7 +20,7 @@ from ipf_jax.data.silhouette import (
 )
 from ipf_jax.data.video import VideoReader
 from ipf_jax.errors import IPFError
-from ipf_jax.reference import camera as ref
+from ipf_jax.geometry import host as ref
 
 UU_CAMS = [1, 2, 3, 4]
 

@@ -223,7 +223,7 @@ def test_steady_depth_removes_jitter_along_the_view(walk, tmp_path):
     resid = depth - (fit[0] + fit[1] * (np.arange(len(q)) - (len(q) - 1) / 2))
     assert np.abs(resid).max() < 1e-9  # on the fitted line exactly
     assert abs(fit[0] - 6.0) < 0.05 and abs(fit[1]) < 0.005
-    from ipf_jax.reference.camera import project_points
+    from ipf_jax.geometry.host import project_points
     before = project_points(cam, joints_of(shaky, SHAPE)[:, 0])[0]
     after = project_points(cam, steadied[:, 0])[0]
     np.testing.assert_allclose(after, before, atol=1e-6)  # the sacrum's image is kept

@@ -45,7 +45,7 @@ from ..data.runfiles import (
 from ..errors import require
 from ..filters import registry
 from ..filters.base import Filter
-from ..reference.kinematics import forward_kinematics
+from ..geometry.host import forward_kinematics
 from ..tracking.tracker import Tracker, TrackSettings
 
 

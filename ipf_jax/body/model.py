@@ -2,7 +2,7 @@
 
 Everything here is static topology (Python data), read at trace time by the JAX forward kinematics
 (:mod:`ipf_jax.geometry.kinematics`) and, independently, by the NumPy reference
-(:mod:`ipf_jax.reference.kinematics`).
+(:mod:`ipf_jax.geometry.host`).
 
 Body frame convention (every local frame, at zero angles): ``x`` forward (anterior), ``y`` to the
 subject's left, ``z`` up. The root frame is the pelvis, located at the ``sacrum`` point. The world

@@ -15,8 +15,8 @@ import numpy as np
 from ..body.model import NUM_DOF, NUM_POINTS, SHAPE_PARAM_NAMES
 from ..body.shape import BodyShape, default_shape
 from ..errors import IPFError, load_json, require
+from ..geometry.host import forward_kinematics
 from ..geometry.world import AXES, axis_vector, up_rotation
-from ..reference.kinematics import forward_kinematics
 from .runfiles import JOINT_COLUMNS, POSE_COLUMNS, read_table
 
 

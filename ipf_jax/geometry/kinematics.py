@@ -3,7 +3,7 @@
 Written for ONE particle; the kinematic tree of :mod:`ipf_jax.body.model` is unrolled at trace time.
 Batch with ``jax.vmap`` at a factory boundary (see :mod:`ipf_jax.likelihood.scorer`). The same code also
 runs on NumPy arrays with leading particle axes (``xp=numpy``): the vectorised NumPy baseline
-(:mod:`ipf_jax.reference.scanline`) uses it, while :mod:`ipf_jax.reference.kinematics` stays the
+(:mod:`ipf_jax.reference.scanline`) uses it, while :mod:`ipf_jax.geometry.host` stays the
 independent oracle.
 """
 from __future__ import annotations

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..body.model import DOF_INDEX, NUM_DOF
-from ..reference.kinematics import forward_kinematics
+from .host import forward_kinematics
 
 #: Coarse leg configurations (hip flexion, knee flexion) left/right in degrees, for initialisation.
 LEG_CONFIGS_DEG: tuple[tuple[float, float, float, float], ...] = (

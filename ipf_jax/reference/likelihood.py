@@ -4,24 +4,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.camera import Camera
-from ..geometry.capsule2d import capsule_outline
+from ..geometry.host import project_capsules
 from ..likelihood.scorer import weights_from_counts
-from .camera import project_spheres
-from .kinematics import forward_kinematics
 from .raster import counts_from_caps
 
 __all__ = ["project_capsules", "counts", "weights_from_counts"]
-
-
-def project_capsules(q, shape_values, up, cameras: list[Camera]) -> np.ndarray:
-    """One particle -> (C, S, 15) float32 capsule records."""
-    pose = forward_kinematics(q, shape_values, up)
-    out = []
-    for cam in cameras:
-        uv0, r0, in0 = project_spheres(cam, pose.seg_a, pose.seg_r[:, 0])
-        uv1, r1, in1 = project_spheres(cam, pose.seg_b, pose.seg_r[:, 1])
-        out.append(capsule_outline(np, uv0, r0, uv1, r1, in0 & in1))
-    return np.stack(out)
 
 
 def counts(particles, shape_values, up, cameras: list[Camera], masks: list[np.ndarray]) -> np.ndarray:

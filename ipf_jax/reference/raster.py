@@ -1,43 +1,12 @@
-"""Reference rasteriser: every pixel of the image against every part of every capsule, int64.
-
-Each capsule's pixels are its parts' pixels (disc0 | disc1 | quad) filled on every row from the
-leftmost to the rightmost one (the row-convex rule of :func:`ipf_jax.likelihood.raster.row_intervals`).
-
-The quantisation (:func:`ipf_jax.likelihood.raster.quantize`) is the raster grid's definition and is shared;
-from there this is the textbook test of a pixel centre against two discs and a convex quad, with
-no region of interest, no clamping and no bit tricks.
-"""
+"""Reference counts: the per-pixel model silhouette (:mod:`ipf_jax.likelihood.model_mask`) against a
+mask, int64, no region of interest."""
 from __future__ import annotations
 
 import numpy as np
 
-from ..likelihood.raster import quant_scale, quantize
+from ..likelihood.model_mask import model_mask
 
-
-def model_mask(caps: np.ndarray, height: int, width: int) -> np.ndarray:
-    """(S, 15) float32 capsule records -> (height, width) bool model silhouette."""
-    q = quant_scale(height, width)
-    qc = quantize(np, np.asarray(caps, np.float32), q, max(height, width))
-    disc, quad = qc.disc.astype(np.int64), qc.quad.astype(np.int64)
-    py, px = np.mgrid[0:height, 0:width].astype(np.int64) * q
-    mask = np.zeros((height, width), bool)
-    for s in range(len(disc)):
-        if not qc.drawn[s]:
-            continue
-        parts = np.zeros((height, width), bool)
-        for cx, cy, r in disc[s]:
-            parts |= (px - cx) ** 2 + (py - cy) ** 2 <= r * r
-        if qc.quad_on[s]:
-            inside = np.ones((height, width), bool)
-            for k in range(4):
-                a, b = quad[s, k], quad[s, (k + 1) % 4]
-                inside &= (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]) >= 0
-            parts |= inside
-        # row-convex fill: leftmost to rightmost inside pixel of this capsule on each row
-        for row in np.nonzero(parts.any(axis=1))[0]:
-            cols = np.nonzero(parts[row])[0]
-            mask[row, cols[0]:cols[-1] + 1] = True
-    return mask
+__all__ = ["model_mask", "counts_from_caps"]
 
 
 def counts_from_caps(caps: np.ndarray, mask: np.ndarray) -> tuple[int, int, int]:

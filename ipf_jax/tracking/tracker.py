@@ -41,6 +41,7 @@ from ..errors import IPFError, require
 from ..filters import registry
 from ..filters.base import FilterState
 from ..geometry.camera import Z_NEAR, Camera
+from ..geometry.host import forward_kinematics, project_points
 from ..geometry.world import AXES, detect_up_axis, up_rotation
 from ..likelihood.scorer import (
     Observation,
@@ -48,8 +49,6 @@ from ..likelihood.scorer import (
     make_observation,
     weights_from_counts,
 )
-from ..reference.camera import project_points
-from ..reference.kinematics import forward_kinematics
 from .contact import FloorContact
 from .initialise import InitSettings, floor_points, initialise
 from .origin import FrameAnchor, observe_anchor, root_shift, silhouette_rays

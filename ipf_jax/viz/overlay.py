@@ -17,10 +17,8 @@ import numpy as np
 from ..body.model import BONES, POINT_INDEX, SEGMENT_NAMES
 from ..body.shape import BodyShape
 from ..geometry.camera import Camera
-from ..reference.camera import project_points
-from ..reference.kinematics import forward_kinematics
-from ..reference.likelihood import project_capsules
-from ..reference.raster import model_mask
+from ..geometry.host import forward_kinematics, project_capsules, project_points
+from ..likelihood.model_mask import model_mask
 
 LEFT, RIGHT, MID = (60, 60, 230), (230, 120, 40), (60, 200, 60)
 SILHOUETTE, OVERLAP, MODEL_ONLY = (120, 120, 120), (235, 200, 160), (40, 140, 255)

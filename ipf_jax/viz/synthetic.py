@@ -11,11 +11,10 @@ import numpy as np
 from ..body.model import DOF_INDEX, NUM_DOF
 from ..body.shape import BodyShape
 from ..geometry.camera import Camera
+from ..geometry.host import forward_kinematics, project_capsules
 from ..geometry.posing import place_on_floor
 from ..geometry.world import up_rotation
-from ..reference.kinematics import forward_kinematics
-from ..reference.likelihood import project_capsules
-from ..reference.raster import model_mask
+from ..likelihood.model_mask import model_mask
 
 
 def look_at_camera(centre, target, *, width: int, height: int, focal_px: float,

@@ -25,8 +25,8 @@ from ...body.model import (
 )
 from ...body.model import POINT_NAMES as OUR_NAMES
 from ...errors import require
+from ...geometry.host import forward_kinematics
 from ...geometry.world import up_rotation
-from ...reference.kinematics import forward_kinematics
 from .io import read_body_shape, read_pose
 from .kinematics import POINT_NAMES as PEER_NAMES
 from .kinematics import bodytrack_points_batch

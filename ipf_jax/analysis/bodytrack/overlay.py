@@ -14,7 +14,7 @@ import numpy as np
 
 from ...errors import require
 from ...geometry.camera import Camera
-from ...reference.camera import project_points
+from ...geometry.host import project_points
 from .io import NUM_PARTS, read_bmp
 from .kinematics import BodytrackParts
 
