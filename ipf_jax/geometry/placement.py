@@ -19,8 +19,8 @@ import numpy as np
 
 from ..body.model import POINT_INDEX
 from ..errors import require
-from ..tracking.origin import viewing_ray
 from .camera import Camera, validate_camera
+from .rays import viewing_ray
 
 
 def person_extent(mask: np.ndarray, min_area: int = 50):

@@ -34,7 +34,7 @@ from ..filters.selection import top_distinct
 from ..geometry.camera import Camera
 from ..geometry.placement import floor_point_single
 from ..geometry.posing import LEG_CONFIGS_DEG, gait_pose, place_on_floor
-from .origin import intersect_rays, is_upright, ray_at_height, silhouette_rays
+from ..geometry.rays import intersect_rays, is_upright, ray_at_height, silhouette_rays
 
 CENTROID_HEIGHT = 0.55  # fraction of standing height at the body's area centroid
 

@@ -11,71 +11,12 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import cv2
 import numpy as np
 
 from ..geometry.camera import Camera
+from ..geometry.rays import camera_rays, intersect_rays, is_upright, ray_at_height
 
 MAX_SHIFT_M = 0.5  # a larger jump between frames is not trusted (a second person, clutter)
-
-
-def blob_centroid(mask: np.ndarray, min_area: int = 20) -> tuple[float, float] | None:
-    """Centroid (u, v) of the largest 8-connected foreground blob, or None."""
-    n, _, stats, cents = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
-    if n <= 1:
-        return None
-    k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    if stats[k, cv2.CC_STAT_AREA] < min_area:
-        return None
-    return float(cents[k, 0]), float(cents[k, 1])
-
-
-def viewing_ray(cam: Camera, u: float, v: float) -> tuple[np.ndarray, np.ndarray]:
-    """World ray (origin, unit direction) through pixel (u, v), distortion removed."""
-    xy = cv2.undistortPoints(np.array([[[u, v]]], np.float64), cam.K, cam.dist).reshape(2)
-    d = cam.R.T @ np.array([xy[0], xy[1], 1.0])
-    return cam.centre, d / np.linalg.norm(d)
-
-
-def camera_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list:
-    """Per camera, the ray through its largest blob's centroid, or None when it sees no one."""
-    out = []
-    for mask, cam in zip(masks, cameras):
-        c = blob_centroid(mask)
-        out.append(None if c is None else viewing_ray(cam, *c))
-    return out
-
-
-def silhouette_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The rays of the cameras that see someone."""
-    return [r for r in camera_rays(masks, cameras) if r is not None]
-
-
-def intersect_rays(rays) -> np.ndarray | None:
-    """Least-squares closest point to two or more rays, None when they are (nearly) parallel."""
-    if len(rays) < 2:
-        return None
-    A = sum(np.eye(3) - np.outer(d, d) for _, d in rays)
-    b = sum((np.eye(3) - np.outer(d, d)) @ o for o, d in rays)
-    if np.linalg.cond(A) > 1e6:
-        return None
-    return np.linalg.solve(A, b)
-
-
-def ray_at_height(ray, up: np.ndarray, height: float) -> np.ndarray | None:
-    """Where a ray meets the plane ``up . X = height`` (in front of the camera), else None."""
-    o, d = ray
-    denom = up @ d
-    if abs(denom) < 1e-3:
-        return None
-    t = (height - up @ o) / denom
-    return o + t * d if t > 0 else None
-
-
-def is_upright(cam: Camera, up: np.ndarray, cos_limit: float = 0.95) -> bool:
-    """True when the camera's image 'up' is within ~18 deg of the world's (a level, unrolled
-    camera: people stand upright in its images, feet at the bottom)."""
-    return float(up @ (cam.R.T @ np.array([0.0, -1.0, 0.0]))) > cos_limit
 
 
 class FrameAnchor(NamedTuple):
@@ -83,7 +24,7 @@ class FrameAnchor(NamedTuple):
 
     rays : per camera, the ray through its largest blob's centroid, or None.
     feet : (3,) floor point under the person from a single upright camera (its lowest and highest
-    silhouette pixels and the body height, see :mod:`ipf_jax.analysis.singlecam`), or None.
+    silhouette pixels and the body height, see :mod:`ipf_jax.geometry.placement`), or None.
     """
 
     rays: list

@@ -42,6 +42,7 @@ from ..filters import registry
 from ..filters.base import FilterState
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
+from ..geometry.rays import silhouette_rays
 from ..geometry.world import AXES, detect_up_axis, up_rotation
 from ..likelihood.scorer import (
     Observation,
@@ -51,7 +52,7 @@ from ..likelihood.scorer import (
 )
 from .contact import FloorContact
 from .initialise import InitSettings, floor_points, initialise
-from .origin import FrameAnchor, observe_anchor, root_shift, silhouette_rays
+from .origin import FrameAnchor, observe_anchor, root_shift
 
 DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
 DEFAULT_FPS = 20.0  # the paper's rate
