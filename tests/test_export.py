@@ -20,10 +20,10 @@ from ipf_jax.analysis.export import (
     to_file_frame,
     write_run_dir,
 )
-from ipf_jax.analysis.export.cli import main
 from ipf_jax.analysis.gait.io import load as load_trajectories
 from ipf_jax.body import POINT_NAMES, default_shape, load_limits
 from ipf_jax.body.model import NUM_DOF
+from ipf_jax.cli.export import main
 from ipf_jax.errors import IPFError
 from ipf_jax.geometry.world import AXES, axis_vector
 

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from ipf_jax.analysis.gait import cli
+from ipf_jax.cli import gait as cli
 
 
 def _parse(argv):

@@ -10,8 +10,10 @@ import pytest
 from ipf_jax.analysis import singlecam as sc
 from ipf_jax.body.model import DOF_INDEX, POINT_INDEX
 from ipf_jax.body.shape import default_shape
+from ipf_jax.cli import main
 from ipf_jax.data.rundir import joints_from_poses, read_run, write_run_dir
 from ipf_jax.errors import IPFError
+from ipf_jax.geometry import placement as pl
 from ipf_jax.geometry.posing import gait_pose, place_on_floor
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.viz.synthetic import (
@@ -49,18 +51,18 @@ def test_person_extent_joins_a_silhouette_cut_in_two():
     mask[10:50, 20:40] = True  # torso
     mask[55:90, 22:30] = True  # legs, separated by a gap (clothes like the background)
     mask[5:8, 50:58] = True  # a speck elsewhere: not the person
-    (uf, vf), (uh, vh) = sc.person_extent(mask)
+    (uf, vf), (uh, vh) = pl.person_extent(mask)
     assert (vf, vh) == (89.5, 9.5)
     assert uf == uh == pytest.approx((800 * 29.5 + 280 * 25.5) / 1080)  # area-weighted centre
-    assert sc.person_extent(np.zeros((10, 10), bool)) is None
+    assert pl.person_extent(np.zeros((10, 10), bool)) is None
 
 
 @pytest.mark.parametrize("x,y", [(0.0, 0.0), (1.2, 1.5), (-1.0, -1.5)])
 def test_floor_point_of_a_standing_person(x, y):
     cam = level_camera()
     mask = render_masks(standing_at(x, y)[None], SHAPE, [cam])[0, 0]
-    by_height = sc.floor_point_single(mask, cam, UP, SHAPE.height_m)
-    by_feet = sc.floor_point_single(mask, cam, UP, None)
+    by_height = pl.floor_point_single(mask, cam, UP, SHAPE.height_m)
+    by_feet = pl.floor_point_single(mask, cam, UP, None)
     # across the view: the silhouette's centre column is not quite the sacrum's; in depth (what
     # one camera measures worst) a pixel at 6 m is 2 cm across and the model's soles and crown are
     # a few cm from the silhouette's extremes
@@ -72,25 +74,25 @@ def test_floor_point_of_a_standing_person(x, y):
 def test_floor_point_by_height_ignores_a_wrong_camera_height():
     cam = level_camera()
     mask = render_masks(standing_at(0.5, 0.0)[None], SHAPE, [cam])[0, 0]
-    wrong = sc.camera_at_height(cam, UP, 1.7)  # the nominal calibration is 50 cm too high
-    p = sc.floor_point_single(mask, wrong, UP, SHAPE.height_m)
+    wrong = pl.camera_at_height(cam, UP, 1.7)  # the nominal calibration is 50 cm too high
+    p = pl.floor_point_single(mask, wrong, UP, SHAPE.height_m)
     assert abs(p[1]) < 0.25 and abs(p[0] - 0.5) < 0.08
-    assert sc.floor_point_single(np.zeros_like(mask), cam, UP, 1.7) is None
+    assert pl.floor_point_single(np.zeros_like(mask), cam, UP, 1.7) is None
 
 
 def test_camera_height_from_a_walking_person(walk_masks):
     _, masks = walk_masks
-    nominal = sc.camera_at_height(level_camera(), UP, 1.7)
-    h, per_frame = sc.camera_height_from_person(nominal, list(masks), UP, SHAPE.height_m)
+    nominal = pl.camera_at_height(level_camera(), UP, 1.7)
+    h, per_frame = pl.camera_height_from_person(nominal, list(masks), UP, SHAPE.height_m)
     assert per_frame.shape == (len(masks),) and np.all(np.isfinite(per_frame))
     assert abs(h - CAM_HEIGHT) < 0.05, h  # silhouette top/bottom vs standing height: a few cm
     with pytest.raises(IPFError, match="no person silhouette"):
-        sc.camera_height_from_person(nominal, [np.zeros_like(masks[0])], UP, 1.7)
+        pl.camera_height_from_person(nominal, [np.zeros_like(masks[0])], UP, 1.7)
 
 
 def test_camera_at_height_keeps_orientation_and_intrinsics():
     cam = level_camera()
-    moved = sc.camera_at_height(cam, UP, 2.0)
+    moved = pl.camera_at_height(cam, UP, 2.0)
     np.testing.assert_allclose(moved.centre, [0.0, -6.0, 2.0], atol=1e-12)
     np.testing.assert_array_equal(moved.R, cam.R)
     np.testing.assert_array_equal(moved.K, cam.K)
@@ -194,7 +196,7 @@ def test_fix_single_writes_a_corrected_run(walk, tmp_path, capsys):
     bad = exchange(q, range(40, 75))
     bad[10] = np.nan  # a missing frame stays missing
     run_dir = write_run_dir(tmp_path / "run", bad, shape=SHAPE, fps=FPS, meta={"dataset": "x"})
-    assert sc.main(["fix-single", str(run_dir), "--out", str(tmp_path / "fixed"),
+    assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "fixed"),
                     "--keep-depth"]) == 0
     assert "1 leg swap(s) at frame(s) [40] (35 frames exchanged)" in capsys.readouterr().out
     fixed = read_run(tmp_path / "fixed")
@@ -217,7 +219,7 @@ def test_steady_depth_removes_jitter_along_the_view(walk, tmp_path):
     jitter[:, 1] = rng.normal(0, 0.1, len(q))  # 10 cm of depth noise (world y = the view)
     shaky = q.copy()
     shaky[:, :3] += jitter
-    shifts, fit = sc.steady_depth(joints_of(shaky, SHAPE), cam, UP)
+    shifts, fit = pl.steady_depth(joints_of(shaky, SHAPE), cam, UP)
     steadied = joints_of(shaky, SHAPE) + shifts[:, None]
     depth = steadied[:, POINT_INDEX["sacrum"], 1] + 6.0
     resid = depth - (fit[0] + fit[1] * (np.arange(len(q)) - (len(q) - 1) / 2))
@@ -237,9 +239,9 @@ def test_steady_depth_removes_jitter_along_the_view(walk, tmp_path):
 
 def test_fix_single_refuses_to_overwrite_the_run(walk, tmp_path, capsys):
     run_dir = write_run_dir(tmp_path / "run", walk[0][:10], shape=SHAPE, fps=FPS)
-    assert sc.main(["fix-single", str(run_dir), "--out", str(run_dir), "--keep-depth"]) == 2
+    assert main(["fix-single", str(run_dir), "--out", str(run_dir), "--keep-depth"]) == 2
     assert "write the corrected run to another folder" in capsys.readouterr().err
-    assert sc.main(["fix-single", str(run_dir), "--out", str(tmp_path / "o")]) == 2
+    assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "o")]) == 2
     assert "give --dataset (or --keep-depth)" in capsys.readouterr().err
 
 
@@ -249,10 +251,10 @@ def test_fix_single_takes_the_camera_from_the_dataset(walk_masks, tmp_path, caps
     q, masks = walk_masks
     data = write_dataset(tmp_path / "data", [level_camera()], masks[:, None])
     run_dir = write_run_dir(tmp_path / "run", q, shape=SHAPE, fps=20.0, meta={"dataset": str(data)})
-    assert sc.main(["fix-single", str(run_dir), "--out", str(tmp_path / "o"), "--camera",
+    assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "o"), "--camera",
                     "side"]) == 0
     out = capsys.readouterr().out
     assert "0 leg swap(s)" in out and "depth steadied to" in out and "from side" in out
-    assert sc.main(["fix-single", str(run_dir), "--out", str(tmp_path / "o"), "--camera",
+    assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "o"), "--camera",
                     "3"]) == 2
     assert "--camera: no camera '3' (cameras: side, or 1..1)" in capsys.readouterr().err

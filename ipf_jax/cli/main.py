@@ -71,15 +71,15 @@ def add_tracking_options(p: argparse.ArgumentParser) -> None:
 #: name -> (module, one-line help). Only the invoked command's module is imported (they pull in
 #: JAX, SciPy and matplotlib, seconds of start-up); the others appear in ``--help`` by name.
 MODULE_COMMANDS = {
-    "gait": ("ipf_jax.analysis.gait.cli", "gait events and parameters from joints.csv, .trc or .c3d"),
-    "export": ("ipf_jax.analysis.export.cli", "write tracking results as TRC, C3D, BVH or CSV"),
+    "gait": ("ipf_jax.cli.gait", "gait events and parameters from joints.csv, .trc or .c3d"),
+    "export": ("ipf_jax.cli.export", "write tracking results as TRC, C3D, BVH or CSV"),
     "compare": ("ipf_jax.analysis.compare", "IPF, APF and SIR side by side at the same likelihood budget"),
-    "eval": ("ipf_jax.analysis.evaluation.cli", "3D error of an estimate against a reference (MPJPE, per joint, per axis)"),
-    "sweep": ("ipf_jax.sweep.cli", "accuracy vs cost over a grid of settings (resumable; local or Ray)"),
-    "batch": ("ipf_jax.sweep.cli", "track many recordings with one set of settings (resumable; local or Ray)"),
+    "eval": ("ipf_jax.cli.evaluate", "3D error of an estimate against a reference (MPJPE, per joint, per axis)"),
+    "sweep": ("ipf_jax.cli.sweep", "accuracy vs cost over a grid of settings (resumable; local or Ray)"),
+    "batch": ("ipf_jax.cli.sweep", "track many recordings with one set of settings (resumable; local or Ray)"),
     "bench": ("ipf_jax.profiling", "throughput of the measure step (JAX vs NumPy) and tracking s/frame"),
     "render": ("ipf_jax.viz.render", "overlay video/images of a tracked run over each camera's frames or masks"),
-    "fix-single": ("ipf_jax.analysis.singlecam.cli", "single-camera post-processing of a run: leg swaps, steady depth"),
+    "fix-single": ("ipf_jax.cli.fix_single", "single-camera post-processing of a run: leg swaps, steady depth"),
 }
 
 

@@ -205,3 +205,21 @@ class MemoryDataset(Dataset):
     def masks(self, frame: int) -> list[np.ndarray]:
         i = self._index[frame]
         return [self._masks[i, c, : cam.height, : cam.width] for c, cam in enumerate(self.cameras)]
+
+
+def pick_cameras(cameras, text: str | None, option: str = "--cameras") -> list[int]:
+    """Indices of the cameras named in ``text`` (comma-separated names or 1-based numbers);
+    ``option`` names the setting in the error."""
+    if not text:
+        return list(range(len(cameras)))
+    names = [c.name for c in cameras]
+    out = []
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        if item in names:
+            out.append(names.index(item))
+        elif item.isdigit() and 1 <= int(item) <= len(cameras):
+            out.append(int(item) - 1)
+        else:
+            raise IPFError(f"{option}: no camera {item!r} (cameras: {', '.join(names)}, or 1.."
+                           f"{len(cameras)})")
+    return out

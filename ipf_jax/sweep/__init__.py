@@ -2,7 +2,7 @@
 
 ``spec`` (a cell's settings and stable id), ``config`` (sweep TOML -> cells), ``batch`` (manifest
 -> cells), ``runner`` (track + evaluate one cell, failures recorded), ``backends`` (local, ray),
-``store`` (atomic per-cell records, resume), ``summary`` (summary.csv/json, Pareto plot), ``cli``.
+``store`` (atomic per-cell records, resume), ``summary`` (summary.csv/json, Pareto plot); the commands are in :mod:`ipf_jax.cli.sweep`.
 """
 from .backends import LocalBackend, RayBackend, make_backend
 from .batch import batch_cells, read_manifest

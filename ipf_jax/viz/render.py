@@ -55,24 +55,6 @@ def _pick_frames(frames: np.ndarray, text: str | None) -> np.ndarray:
     return np.array(select_frames(frames.tolist(), parse_frames(text)))
 
 
-def pick_cameras(cameras, text: str | None, option: str = "--cameras") -> list[int]:
-    """Indices of the cameras named in ``text`` (comma-separated names or 1-based numbers);
-    ``option`` names the setting in the error."""
-    if not text:
-        return list(range(len(cameras)))
-    names = [c.name for c in cameras]
-    out = []
-    for item in (t.strip() for t in text.split(",") if t.strip()):
-        if item in names:
-            out.append(names.index(item))
-        elif item.isdigit() and 1 <= int(item) <= len(cameras):
-            out.append(int(item) - 1)
-        else:
-            raise IPFError(f"{option}: no camera {item!r} (cameras: {', '.join(names)}, or 1.."
-                           f"{len(cameras)})")
-    return out
-
-
 def _dataset_path(dataset, meta: dict, run_dir: Path) -> Path:
     if dataset:
         return Path(dataset)
@@ -127,7 +109,7 @@ def render_run(run_dir: str | Path, out: str | Path, *, dataset: str | Path | No
                size: int | None = None, fps: float | None = None, progress: bool = True) -> dict:
     """Render a run (see module doc). ``background``: "images", "masks" or None (images when the
     dataset has them). Returns a summary: output, kind, frames written, size, mean weight."""
-    from ..data.dataset import open_dataset
+    from ..data.dataset import open_dataset, pick_cameras
     from ..data.rundir import read_run
     from ..geometry.world import up_rotation
     from .overlay import frame_overlay

@@ -1,7 +1,7 @@
 """Export of tracking results: TRC (OpenSim), C3D (Mokka, Vicon), BVH (Blender), CSV.
 
 One module per format over one run-directory reader (:mod:`.rundir`) and one change of axes and
-units (:mod:`.axes`); :mod:`.cli` is the ``ipf-jax export`` sub-command. See ``docs/export.md``.
+units (:mod:`.axes`); :mod:`ipf_jax.cli.export` is the ``ipf-jax export`` sub-command. See ``docs/export.md``.
 """
 from ...data.rundir import (
            Run,

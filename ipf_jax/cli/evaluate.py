@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from .metrics import ALIGN_MODES
+from ..analysis.evaluation.metrics import ALIGN_MODES
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -44,9 +44,9 @@ def split_table(ev) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate; prints one summary line. IPFError propagates to the main CLI (exit 2)."""
-    from ...body.model import LIMB_JOINTS
-    from .metrics import evaluate_files, systematic_doc
-    from .report import write_outputs
+    from ..analysis.evaluation.metrics import evaluate_files, systematic_doc
+    from ..analysis.evaluation.report import write_outputs
+    from ..body.model import LIMB_JOINTS
 
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
     ev, _, truth = evaluate_files(args.estimate, args.truth, joints=joints, align=args.align)

@@ -9,14 +9,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from ...data.rundir import read_run
-from ...errors import IPFError
-from ...geometry.world import AXES
-from .axes import UNIT_SCALE
-from .bvh import export_bvh
-from .c3d import export_c3d
-from .joints_csv import export_csv
-from .trc import export_trc
+from ..analysis.export.axes import UNIT_SCALE
+from ..analysis.export.bvh import export_bvh
+from ..analysis.export.c3d import export_c3d
+from ..analysis.export.joints_csv import export_csv
+from ..analysis.export.trc import export_trc
+from ..data.rundir import read_run
+from ..errors import IPFError
+from ..geometry.world import AXES
 
 #: format -> (exporter, default up axis (None = the run's world frame), default units)
 EXPORTERS = {
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry: ``python -m ipf_jax.analysis.export.cli export RUN_DIR ...``."""
+    """Stand-alone entry: ``python -m ipf_jax.cli.export export RUN_DIR ...``."""
     parser = argparse.ArgumentParser(prog="ipf-jax")
     add_parser(parser.add_subparsers(dest="command", required=True))
     return run(parser.parse_args(argv))

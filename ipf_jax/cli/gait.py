@@ -10,11 +10,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ...errors import IPFError
-from ...geometry.world import AXES
-from .events import DEFAULT_METHOD, METHODS
-from .filtering import DEFAULT_CUTOFF_HZ
-from .io import UNIT_SCALE
+from ..analysis.gait.events import DEFAULT_METHOD, METHODS
+from ..analysis.gait.filtering import DEFAULT_CUTOFF_HZ
+from ..analysis.gait.io import UNIT_SCALE
+from ..errors import IPFError
+from ..geometry.world import AXES
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -42,9 +42,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the analysis for parsed ``args``; returns the process exit status."""
-    from .analysis import analyse
-    from .io import load
-    from .report import write_outputs
+    from ..analysis.gait.analysis import analyse
+    from ..analysis.gait.io import load
+    from ..analysis.gait.report import write_outputs
 
     try:
         traj = load(args.input, marker_map=args.marker_map, up=args.up, units=args.units)
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list | None = None) -> int:
-    """Stand-alone entry (``python -m ipf_jax.analysis.gait.cli``) until the main CLI wires ``gait`` in."""
+    """Stand-alone entry (``python -m ipf_jax.cli.gait``) until the main CLI wires ``gait`` in."""
     parser = argparse.ArgumentParser(prog="ipf-jax")
     add_parser(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)

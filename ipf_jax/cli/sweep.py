@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .backends import BACKENDS
+from ..sweep.backends import BACKENDS
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -27,7 +27,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def add_parser(subparsers) -> None:
     """Register ``sweep`` and ``batch`` on the main CLI's sub-parsers (both set ``func``)."""
-    from ..cli.main import add_tracking_options
+    from .main import add_tracking_options
 
     p = subparsers.add_parser(
         "sweep", help="accuracy vs cost over a grid of settings (resumable; local or Ray)",
@@ -50,8 +50,8 @@ def add_parser(subparsers) -> None:
 
 
 def _execute(cells, args, kind: str):
-    from .backends import make_backend
-    from .store import Store, run_cells
+    from ..sweep.backends import make_backend
+    from ..sweep.store import Store, run_cells
 
     store = Store(Path(args.out), "cells" if kind == "sweep" else "items")
     if args.dry_run:
@@ -74,7 +74,7 @@ def _execute(cells, args, kind: str):
 
 
 def _report(records, ran: int, kind: str, files: list) -> int:
-    from .summary import code_versions
+    from ..sweep.summary import code_versions
 
     failed = [r for r in records if r["status"] == "failed"]
     unit = "cells" if kind == "sweep" else "recordings"
@@ -101,8 +101,8 @@ def _title(name: str, records: list[dict]) -> str:
 
 
 def run_sweep(args: argparse.Namespace) -> int:
-    from .config import load_config
-    from .summary import plot_pareto, write_status, write_summary
+    from ..sweep.config import load_config
+    from ..sweep.summary import plot_pareto, write_status, write_summary
 
     cfg = load_config(args.config)
     store, records, ran = _execute(cfg.cells, args, "sweep")
@@ -115,8 +115,8 @@ def run_sweep(args: argparse.Namespace) -> int:
 
 
 def run_batch(args: argparse.Namespace) -> int:
-    from .batch import batch_cells, settings_from_args
-    from .summary import write_status, write_summary
+    from ..sweep.batch import batch_cells, settings_from_args
+    from ..sweep.summary import write_status, write_summary
 
     cells = batch_cells(args.manifest, settings_from_args(args))
     store, records, ran = _execute(cells, args, "batch")

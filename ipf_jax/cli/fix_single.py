@@ -1,0 +1,72 @@
+"""``ipf-jax fix-single RUN_DIR --out DIR``: single-camera post-processing of a tracked run
+(:func:`ipf_jax.analysis.singlecam.fix_single_camera`)."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ..analysis.singlecam import MEETING_M, MIN_GAIN_M, fix_single_camera
+from ..errors import IPFError, require
+from ..geometry.camera import Camera
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """``fix-single RUN_DIR --out DIR``: single-camera post-processing of a tracked run."""
+    p = subparsers.add_parser(
+        "fix-single", help="single-camera post-processing of a run: correct left/right leg swaps "
+        "and steady the depth, into a new run folder",
+        description="Detect and correct left/right leg swaps (docs/single_camera.md) and move each "
+                    "frame's body along its viewing ray to a steady depth from the camera. Writes "
+                    "joints.csv, poses.csv and run.json into --out.")
+    p.add_argument("run_dir")
+    p.add_argument("--out", required=True, help="folder for the corrected run (not RUN_DIR)")
+    p.add_argument("--dataset", help="dataset folder for the camera (default: run.json's)")
+    p.add_argument("--camera", help="camera name or 1-based number (default: the only one)")
+    p.add_argument("--keep-legs", action="store_true", help="do not correct leg swaps")
+    p.add_argument("--keep-depth", action="store_true", help="do not steady the depth")
+    p.add_argument("--min-gain", type=float, default=MIN_GAIN_M,
+                   help=f"metres by which exchanged labels must fit better (default {MIN_GAIN_M})")
+    p.add_argument("--meeting", type=float, default=MEETING_M,
+                   help=f"metres by which the ankles' separation must dip to count as a meeting; "
+                        f"legs that meet and part on the same sides were swapped (default "
+                        f"{MEETING_M}; 0 = walking not assumed)")
+    p.set_defaults(func=run)
+    return p
+
+
+def _run_camera(args) -> Camera:
+    from ..data.dataset import open_dataset, pick_cameras
+
+    path = args.dataset
+    if path is None:
+        meta_path = Path(args.run_dir) / "run.json"
+        try:
+            path = json.loads(meta_path.read_text()).get("dataset")
+        except (OSError, ValueError) as e:
+            raise IPFError(f"cannot read run.json ({e})", meta_path) from None
+        require(isinstance(path, str) and Path(path).exists(), "the run's dataset is not found "
+                "from here: give --dataset (or --keep-depth)", meta_path)
+    cams = open_dataset(path).cameras
+    require(args.camera is not None or len(cams) == 1,
+            f"the dataset has {len(cams)} cameras: say which with --camera", path)
+    return cams[pick_cameras(cams, args.camera, "--camera")[0] if args.camera else 0]
+
+
+def run(args: argparse.Namespace) -> int:
+    require(args.min_gain > 0, f"--min-gain must be > 0 (got {args.min_gain})")
+    require(args.meeting >= 0, f"--meeting must be >= 0 (got {args.meeting})")
+    camera = None if args.keep_depth else _run_camera(args)
+    rec = fix_single_camera(args.run_dir, args.out, legs=not args.keep_legs, camera=camera,
+                            min_gain_m=args.min_gain, meeting_m=args.meeting or None)
+    done = []
+    if rec["leg_swaps"] is not None:
+        sw = rec["leg_swaps"]
+        done.append(f"{len(sw['swap_frames'])} leg swap(s) at frame(s) "
+                    f"{sw['swap_frames'] or '-'} ({sw['exchanged_frames']} frames exchanged)")
+    if rec["steady_depth"] is not None:
+        sd = rec["steady_depth"]
+        done.append(f"depth steadied to {sd['depth_m']:.2f} m from {sd['camera']} (largest shift "
+                    f"{sd['max_shift_m']:.2f} m)")
+    print("; ".join(done or ["nothing to do"]) + f"; wrote {args.out}")
+    return 0
