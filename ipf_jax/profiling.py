@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import IPFError, require
+from .errors import require
 
 BACKENDS = ("jax-scanline", "jax-dense", "numpy-scanline", "numpy-reference")
 DATASET = "parsec_bodytrack/sequenceB_2"
@@ -228,84 +228,3 @@ def rank_agreement(a: np.ndarray, b: np.ndarray) -> float:
     """Spearman rank correlation of two weight vectors (ties broken by order)."""
     ra, rb = np.argsort(np.argsort(a)), np.argsort(np.argsort(b))
     return float(np.corrcoef(ra, rb)[0, 1])
-
-
-# -- the command -----------------------------------------------------------------------------------
-def _ints(text: str) -> list[int]:
-    try:
-        return [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise IPFError(f"expected comma-separated integers, got {text!r}") from None
-
-
-def add_parser(sub) -> None:
-    p = sub.add_parser("bench", help="throughput of the measure step (JAX vs NumPy) and tracking s/frame")
-    p.add_argument("--json", required=True, help="output file: a JSON list of records")
-    p.add_argument("--data", help=f"bodytrack sequence folder (default: <shared data>/{DATASET})")
-    p.add_argument("--quick", action="store_true", help="small subset: 320x240, 1 camera, 1024 particles")
-    p.add_argument("--backends", default=",".join(BACKENDS))
-    p.add_argument("--widths", default="160,320,640", help="scoring widths (height: 3/4)")
-    p.add_argument("--cameras", default="1,4")
-    p.add_argument("--particles", default="1024,6561,16384", help="particle counts (JAX backends)")
-    p.add_argument("--numpy-particles", type=int, default=512, help="poses for numpy-scanline")
-    p.add_argument("--reference-particles", type=int, default=8, help="poses for numpy-reference")
-    p.add_argument("--repeats", type=int, default=3)
-    p.add_argument("--budget", type=float, default=60.0, help="stop repeating after this many s")
-    p.add_argument("--chunk", type=int, help="particles per compiled call (default: the scorer's)")
-    p.add_argument("--track-widths", default="320",
-                   help="scoring widths for the tracking records (ipf 6561 and apf 4000x5); '' = none")
-    p.add_argument("--cold", action="store_true", help="disable the persistent compilation cache")
-    p.set_defaults(func=run)
-
-
-def run(args) -> int:
-    from tqdm import tqdm
-
-    from .data.runfiles import check_writable, write_json_atomic
-    from .paths import shared_data_dir
-
-    data = Path(args.data) if args.data else shared_data_dir() / DATASET
-    require((data / "InitialPose.txt").exists(), "not a bodytrack sequence (no InitialPose.txt)", data)
-    out = Path(args.json)
-    check_writable(out.parent if str(out.parent) else Path("."))
-    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
-    bad = [b for b in backends if b not in BACKENDS]
-    require(not bad, f"unknown backend(s) {', '.join(bad)} (choose from {', '.join(BACKENDS)})")
-    widths, cams, counts = _ints(args.widths), _ints(args.cameras), _ints(args.particles)
-    track_widths = _ints(args.track_widths)
-    if args.quick:
-        widths, cams, counts, track_widths = [320], [1], [1024], []
-    require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
-    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
-            "cameras, particles and repeats must be >= 1")
-    if args.cold:
-        import jax
-
-        jax.config.update("jax_enable_compilation_cache", False)
-    host = machine()
-    records: list[dict] = []
-    jobs = [(w, c) for w in widths for c in cams]
-    bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths), desc="bench", unit="case")
-    for width, n_cam in jobs:
-        scene = load_scene(data, width, n_cam, max(counts + [args.numpy_particles]))
-        for backend in backends:
-            sizes = {"numpy-scanline": [args.numpy_particles],
-                     "numpy-reference": [args.reference_particles]}.get(backend, counts)
-            for n in sizes:
-                rec, _ = bench_measure(backend, scene, n, repeats=args.repeats, budget_s=args.budget,
-                                       chunk=args.chunk)
-                records.append({**rec, "machine": host})
-                write_json_atomic(out, records)  # partial results survive an interruption
-                bar.set_postfix(last=f"{backend} {width} {n_cam}cam {n}: {rec['particles_per_s']:.0f}/s")
-            bar.update()
-    peer = data.parent / Path(PEER_POSES).name
-    for width in track_widths:
-        for filt in ("ipf", "apf"):
-            rec = bench_track(data, filt, width, peer=peer)
-            records.append({**rec, "machine": host})
-            write_json_atomic(out, records)
-            bar.set_postfix(last=f"track {filt} {width}: {rec['seconds_per_frame']} s/frame")
-            bar.update()
-    bar.close()
-    print(f"wrote {len(records)} records to {out}")
-    return 0

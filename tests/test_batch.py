@@ -6,7 +6,7 @@ import pytest
 from test_sweep import read_summary, write_scene
 
 from ipf_jax.body import default_shape
-from ipf_jax.cli.main import main
+from ipf_jax.cli import main
 from ipf_jax.errors import IPFError
 from ipf_jax.sweep import backends, read_manifest
 

@@ -28,8 +28,9 @@ def test_help_does_not_import_the_heavy_modules():
 
 
 def test_floor_range_reaches_track_and_batch_settings(tmp_path):
-    from ipf_jax.cli.commands import floor_range
-    from ipf_jax.sweep.batch import batch_cells, settings_from_args
+    from ipf_jax.cli.options import floor_range
+    from ipf_jax.cli.sweep import settings_from_args
+    from ipf_jax.sweep.batch import batch_cells
     from ipf_jax.sweep.spec import track_settings
 
     args = _parser(["track"]).parse_args(["track", "ds", "--out", "o", "--floor-range=-0.03,0.10"])

@@ -23,8 +23,8 @@ from ipf_jax.analysis.compare import (
 )
 from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
 from ipf_jax.body.shape import default_shape
+from ipf_jax.cli import main
 from ipf_jax.cli.demo import _write_truth, write_dataset
-from ipf_jax.cli.main import main
 from ipf_jax.data.dataset import MemoryDataset, open_dataset
 from ipf_jax.data.runfiles import POSE_COLUMNS, read_joints_csv
 from ipf_jax.errors import IPFError

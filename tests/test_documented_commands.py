@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from ipf_jax.cli.main import main
+from ipf_jax.cli import main
 
 REPO = Path(__file__).resolve().parent.parent
 DOC_FILES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]

@@ -7,7 +7,7 @@ import pytest
 from ipf_jax.analysis.evaluation import evaluate_files
 from ipf_jax.analysis.evaluation.align import resample, rigid_fit
 from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
-from ipf_jax.cli.main import main
+from ipf_jax.cli import main
 from ipf_jax.data.runfiles import read_joints_csv
 
 TOL = 1e-12  # metres: files hold 9 decimals, the arithmetic is exact to rounding

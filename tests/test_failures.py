@@ -19,8 +19,8 @@ import pytest
 
 from ipf_jax.body import default_shape
 from ipf_jax.body.limits import PRESET_DIR
+from ipf_jax.cli import main
 from ipf_jax.cli.demo import write_dataset
-from ipf_jax.cli.main import main
 from ipf_jax.data.calibration import read_json, write_json
 from ipf_jax.data.dataset import MemoryDataset
 from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS

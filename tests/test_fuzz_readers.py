@@ -24,9 +24,13 @@ from hypothesis import strategies as st
 from ipf_jax.body.limits import limits_to_json, load_limits
 from ipf_jax.body.model import DOF_NAMES, NUM_DOF, POINT_NAMES
 from ipf_jax.body.shape import default_shape, load_shape
-from ipf_jax.cli.commands import read_pose_rows
-from ipf_jax.cli.main import main
-from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, read_joints_csv
+from ipf_jax.cli import main
+from ipf_jax.data.runfiles import (
+    JOINT_COLUMNS,
+    POSE_COLUMNS,
+    read_joints_csv,
+    read_pose_rows,
+)
 from ipf_jax.data.silhouette import read_mask
 from ipf_jax.errors import IPFError
 

@@ -4,7 +4,7 @@ import json
 import pytest
 from test_sweep import read_summary, write_config, write_scene
 
-from ipf_jax.cli.main import main
+from ipf_jax.cli import main
 
 ray = pytest.importorskip("ray", reason="the ray extra is not installed (pip install 'ipf-jax[ray]')")
 pytestmark = pytest.mark.ray

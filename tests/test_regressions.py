@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
-from ipf_jax.cli.main import main
+from ipf_jax.cli import main
 from ipf_jax.data.calibration import read_bodytrack_cal, write_json
 from ipf_jax.data.frames import parse_frames, select_frames
 from ipf_jax.errors import IPFWarning
@@ -115,12 +115,12 @@ def test_track_warns_once_on_a_partial_frame_range(shared_data, tmp_path, capsys
 
 
 def test_an_unexpected_exception_is_one_line_and_exit_70(monkeypatch, tmp_path, capsys):
-    from ipf_jax.cli import commands
+    from ipf_jax.cli import track
 
     def broken(args):
         raise ZeroDivisionError("a bug\nover two lines")
 
-    monkeypatch.setattr(commands, "track", broken)
+    monkeypatch.setattr(track, "run", broken)
     rc = main(["track", str(tmp_path), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert rc == 70

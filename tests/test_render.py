@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from ipf_jax.body.shape import default_shape
+from ipf_jax.cli import main
 from ipf_jax.cli.demo import write_dataset
-from ipf_jax.cli.main import main
 from ipf_jax.data.calibration import write_json
 from ipf_jax.data.rundir import write_run_dir
 from ipf_jax.data.video import VideoReader

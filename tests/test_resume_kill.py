@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from ipf_jax.body import default_shape
+from ipf_jax.cli import main
 from ipf_jax.cli.demo import write_dataset
-from ipf_jax.cli.main import main
 from ipf_jax.data.runfiles import POSE_COLUMNS
 from ipf_jax.viz import synthetic as syn
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from ipf_jax.body import default_shape
+from ipf_jax.cli import main
 from ipf_jax.cli.demo import write_dataset
-from ipf_jax.cli.main import main
 from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender
 from ipf_jax.errors import IPFError
 from ipf_jax.sweep import backends, execute, load_config

@@ -20,6 +20,7 @@ from ..data.runfiles import JOINT_COLUMNS, check_writable
 from ..geometry.world import up_rotation
 from ..tracking.tracker import TrackSettings, track
 from ..viz import synthetic as syn
+from .options import init_settings
 
 DEMO_HEIGHT_M = 1.72
 DEMO_FPS = 20.0
@@ -35,6 +36,26 @@ def write_dataset(root: Path, cameras, masks: np.ndarray) -> Path:
         for t in range(masks.shape[0]):
             cv2.imwrite(str(folder / f"image{t:04d}.png"), masks[t, c].astype(np.uint8) * 255)
     return root
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("demo", help="self-rendered walk: render, track, report error and speed (no downloads)")
+    p.add_argument("--out", default="ipf-jax-demo", help="output folder (default ./ipf-jax-demo)")
+    p.add_argument("--num-frames", type=int, default=24, help="how many frames to render and track "
+                   "(default 24)")
+    p.add_argument("--cameras", type=int, default=3, help="how many virtual cameras, 1..8 (default 3)")
+    p.add_argument("--top-m", type=int, default=None, help="IPF M (default 81)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the tracker (default 0)")
+    p.add_argument("--init-budget", default="default", choices=["default", "small"],
+                   help="effort of the automatic initialisation (small: ~10x cheaper)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from .demo import run_demo
+
+    return run_demo(Path(args.out), n_frames=args.num_frames, n_cameras=args.cameras, top_m=args.top_m,
+                    seed=args.seed, init=init_settings(args))
 
 
 def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | None = None,

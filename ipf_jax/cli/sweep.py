@@ -11,7 +11,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..body.limits import PRESETS
+from ..errors import require
 from ..sweep.backends import BACKENDS
+from ..sweep.spec import resolve
+from .options import filter_options
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -27,7 +31,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def add_parser(subparsers) -> None:
     """Register ``sweep`` and ``batch`` on the main CLI's sub-parsers (both set ``func``)."""
-    from .main import add_tracking_options
+    from .options import add_tracking_options
 
     p = subparsers.add_parser(
         "sweep", help="accuracy vs cost over a grid of settings (resumable; local or Ray)",
@@ -115,7 +119,7 @@ def run_sweep(args: argparse.Namespace) -> int:
 
 
 def run_batch(args: argparse.Namespace) -> int:
-    from ..sweep.batch import batch_cells, settings_from_args
+    from ..sweep.batch import batch_cells
     from ..sweep.summary import write_status, write_summary
 
     cells = batch_cells(args.manifest, settings_from_args(args))
@@ -125,3 +129,31 @@ def run_batch(args: argparse.Namespace) -> int:
     files = [write_summary(records, store.root),
              write_status(records, store.root, kind="batch", extra={"manifest": str(Path(args.manifest).resolve())})]
     return _report(records, ran, "batch", files)
+
+
+def settings_from_args(args, base: Path | None = None) -> dict:
+    """The spec fields shared by every item, from ``track``-style options (``add_tracking_options``);
+    relative file options are relative to ``base`` (default: the working directory)."""
+    base = Path.cwd() if base is None else base
+    options = filter_options(args)
+    if "interesting" in options:
+        options["interesting"] = list(options["interesting"])
+    track = {"budget": args.budget, "resolution": args.resolution, "fps": args.fps, "height_m": args.height,
+             "shape_file": str(resolve(args.shape, base)) if args.shape else None,
+             "limits": args.limits if args.limits in PRESETS else str(resolve(args.limits, base)),
+             "up_axis": args.up, "seed": args.seed, "chunk": args.chunk, "kernel": args.kernel,
+             "floor_range": None if args.floor_range is None else list(args.floor_range)}
+    frames = None
+    if args.frames is not None:
+        sl = args.frames
+        frames = ":".join("" if v is None else str(v) for v in (sl.start, sl.stop, sl.step))
+    init_pose = None
+    if args.init_pose:
+        init_pose = resolve(args.init_pose, base)
+        require(init_pose.suffix.lower() == ".csv", "batch takes --init-pose as a poses.csv-convention "
+                "file (a bodytrack InitialPose.txt belongs to one recording)", init_pose)
+        require(init_pose.is_file(), "initial pose file not found", init_pose)
+        init_pose = str(init_pose)
+    return {"filter": args.filter, "options": options, "frames": frames, "init_pose": init_pose,
+            "track": {k: v for k, v in track.items() if v is not None},
+            "eval": {"joints": None, "align": "none"}}

@@ -175,3 +175,15 @@ def read_joints_csv(path: str | Path) -> JointsTable:
     require(not bad.any(), f"{int(bad.sum())} coordinates are infinite or beyond {MAX_COORD_M:g} m "
             "(coordinates are metres; missing values are nan)", path)
     return JointsTable(frame.astype(np.int64), time_s, pts, tuple(names))
+
+
+def read_pose_rows(path: str | Path) -> np.ndarray:
+    """(N, D) poses from a CSV with one named column per DOF (poses.csv convention)."""
+    path = Path(path)
+    header, data = read_table(path, "poses file")
+    missing = [d for d in DOF_NAMES if d not in header]
+    require(not missing, f"missing DOF columns: {', '.join(missing[:5])}{'...' if len(missing) > 5 else ''}", path)
+    q = data[:, [header.index(d) for d in DOF_NAMES]]
+    require(bool(np.all(np.isfinite(q))), "poses contain NaN or non-numeric values", path)
+    require(bool(np.all(np.abs(q) <= 1e4)), "poses hold values beyond 1e4 (metres or radians)", path)
+    return q

@@ -18,39 +18,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from ..body.limits import PRESETS
 from ..errors import IPFError, require
 from .spec import Cell, check_filter, make_cell, resolve
-
-
-def settings_from_args(args, base: Path | None = None) -> dict:
-    """The spec fields shared by every item, from ``track``-style options (``add_tracking_options``);
-    relative file options are relative to ``base`` (default: the working directory)."""
-    from ..cli.commands import filter_options
-
-    base = Path.cwd() if base is None else base
-    options = filter_options(args)
-    if "interesting" in options:
-        options["interesting"] = list(options["interesting"])
-    track = {"budget": args.budget, "resolution": args.resolution, "fps": args.fps, "height_m": args.height,
-             "shape_file": str(resolve(args.shape, base)) if args.shape else None,
-             "limits": args.limits if args.limits in PRESETS else str(resolve(args.limits, base)),
-             "up_axis": args.up, "seed": args.seed, "chunk": args.chunk, "kernel": args.kernel,
-             "floor_range": None if args.floor_range is None else list(args.floor_range)}
-    frames = None
-    if args.frames is not None:
-        sl = args.frames
-        frames = ":".join("" if v is None else str(v) for v in (sl.start, sl.stop, sl.step))
-    init_pose = None
-    if args.init_pose:
-        init_pose = resolve(args.init_pose, base)
-        require(init_pose.suffix.lower() == ".csv", "batch takes --init-pose as a poses.csv-convention "
-                "file (a bodytrack InitialPose.txt belongs to one recording)", init_pose)
-        require(init_pose.is_file(), "initial pose file not found", init_pose)
-        init_pose = str(init_pose)
-    return {"filter": args.filter, "options": options, "frames": frames, "init_pose": init_pose,
-            "track": {k: v for k, v in track.items() if v is not None},
-            "eval": {"joints": None, "align": "none"}}
 
 
 def read_manifest(path: str | Path) -> list[tuple[Path, Path | None]]:
@@ -77,7 +46,7 @@ def read_manifest(path: str | Path) -> list[tuple[Path, Path | None]]:
 
 
 def batch_cells(manifest: str | Path, shared: dict) -> list[Cell]:
-    """One cell per manifest line with the ``shared`` settings (:func:`settings_from_args`)."""
+    """One cell per manifest line with the ``shared`` settings (:func:`ipf_jax.cli.sweep.settings_from_args`)."""
     check_filter({"dataset": "", "name": "", **shared}, where="tracking options")
     items = read_manifest(manifest)
     names = [folder.name for folder, _ in items]

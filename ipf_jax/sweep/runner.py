@@ -71,9 +71,8 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
     message[, traceback]), ``code`` (:func:`code_fingerprint`), ``host`` (hostname, pid, wall s).
     """
     from ..analysis.evaluation import evaluate_files, summary_doc, write_outputs
-    from ..cli.commands import _frames
     from ..data.dataset import open_dataset
-    from ..data.frames import parse_frames
+    from ..data.frames import parse_frames, select_frames
     from ..tracking.tracker import track
     from .spec import track_settings
 
@@ -87,7 +86,7 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
         if spec.get("truth") and not Path(spec["truth"]).is_file():  # before hours of tracking
             raise IPFError("truth file not found", spec["truth"])
         ds = open_dataset(spec["dataset"])
-        frames = _frames(ds, (parse_frames(spec["frames"]) if spec.get("frames") else None))
+        frames = select_frames(ds.frames, parse_frames(spec["frames"]) if spec.get("frames") else None)
         res = track(ds, work_dir, track_settings(spec), frames=frames, progress=False)
         record["result"], record["timing"] = _run_summary(res.run, work_dir / "joints.csv")
         (work_dir / CHECKPOINT).unlink(missing_ok=True)  # only useful to resume a track; this one is done

@@ -101,7 +101,7 @@ def make_cell(spec: dict, varying: dict | None = None) -> Cell:
 
 def track_settings(spec: dict):
     """The :class:`ipf_jax.tracking.tracker.TrackSettings` of a spec (initial pose read from its file)."""
-    from ..cli.commands import read_pose_rows
+    from ..data.runfiles import read_pose_rows
     from ..tracking.tracker import TrackSettings
 
     track = dict(spec["track"])

@@ -68,7 +68,7 @@ def loss_summary(frame_error: np.ndarray, *, lost_m: float = LOST_M,
     """
     e = np.asarray(frame_error, float)
     lost = e > lost_m
-    runs, run, recoveries = [], 0, []
+    runs, recoveries = [], []
     i = 0
     while i < len(e):
         if lost[i]:
