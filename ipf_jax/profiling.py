@@ -228,3 +228,34 @@ def rank_agreement(a: np.ndarray, b: np.ndarray) -> float:
     """Spearman rank correlation of two weight vectors (ties broken by order)."""
     ra, rb = np.argsort(np.argsort(a)), np.argsort(np.argsort(b))
     return float(np.corrcoef(ra, rb)[0, 1])
+
+
+def timed(fn, repeats: int) -> tuple[float, float]:
+    """Median wall and process-CPU seconds of ``fn()`` over ``repeats`` calls after one warm-up
+    call (compilation), each waited for with ``jax.block_until_ready``."""
+    import jax
+
+    jax.block_until_ready(fn())
+    wall, cpu = [], []
+    for _ in range(repeats):
+        t, c = time.perf_counter(), time.process_time()
+        jax.block_until_ready(fn())
+        wall.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    return float(np.median(wall)), float(np.median(cpu))
+
+
+def stage_timings(scene: Scene, *, chunk: int = 512, repeats: int = 7) -> dict:
+    """Where the time of the JAX measure step goes: each compiled stage of the scorer timed alone
+    on one chunk of the scene's particles, and the whole :meth:`Scorer.counts`.
+
+    Returns ``{"chunk", "sizes", "stages": {name: (wall_s, cpu_s) per chunk}, "whole": (wall_s,
+    cpu_s) for all particles}``.
+    """
+    from .likelihood.scorer import Scorer, make_observation
+
+    obs = make_observation(scene.masks)
+    s = Scorer(scene.cameras, scene.shape, scene.up, chunk=chunk)
+    whole = timed(lambda: s.counts(scene.particles, obs), repeats)
+    stages = {name: timed(fn, repeats) for name, fn in s.stages(scene.particles, obs).items()}
+    return {"chunk": s.chunk, "sizes": [tuple(z) for z in s.sizes], "stages": stages, "whole": whole}

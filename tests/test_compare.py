@@ -24,12 +24,13 @@ from ipf_jax.analysis.compare import (
 from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
 from ipf_jax.body.shape import default_shape
 from ipf_jax.cli import main
-from ipf_jax.cli.demo import _write_truth, write_dataset
 from ipf_jax.data.dataset import MemoryDataset, open_dataset
 from ipf_jax.data.runfiles import POSE_COLUMNS, read_joints_csv
 from ipf_jax.errors import IPFError
 from ipf_jax.tracking.tracker import Tracker, TrackSettings
 from ipf_jax.viz import synthetic as syn
+from ipf_jax.viz.synthetic import write_dataset
+from ipf_jax.viz.synthetic import write_truth as _write_truth
 
 FPS = 20.0
 HEIGHT = 1.72

@@ -229,3 +229,17 @@ def test_the_readme_typical_session_runs_in_order(checkout, capfd):
     block = session_block()
     assert [argv[1] for argv in commands_of(block)] == ["track", "eval", "gait", "render", "export"]
     run_block(block, capfd)
+
+
+def test_the_readme_library_example_runs_and_imports_the_public_package_only(tmp_path, monkeypatch):
+    text = (REPO / "README.md").read_text().split("## Library example", 1)[1]
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    imports = [ln for ln in code.splitlines() if ln.startswith(("import ", "from "))]
+    assert imports == ["import ipf_jax as ipf"], imports
+    monkeypatch.chdir(tmp_path)
+    small = code.replace("procedural_walk(20,", "procedural_walk(3,").replace(
+        "ipf.TrackSettings(", "ipf.TrackSettings(init=ipf.InitSettings(headings=8, position_steps=0, "
+        "modes=1, keep=8, refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1), ")
+    assert small != code
+    exec(compile(small, "README.md", "exec"), {})
+    assert (tmp_path / "out" / "joints.csv").is_file()

@@ -20,13 +20,13 @@ import pytest
 from ipf_jax.body import default_shape
 from ipf_jax.body.limits import PRESET_DIR
 from ipf_jax.cli import main
-from ipf_jax.cli.demo import write_dataset
 from ipf_jax.data.calibration import read_json, write_json
 from ipf_jax.data.dataset import MemoryDataset
 from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS
 from ipf_jax.errors import IPFError
 from ipf_jax.tracking.tracker import TrackSettings, check_cameras_see, track
 from ipf_jax.viz import synthetic as syn
+from ipf_jax.viz.synthetic import write_dataset
 
 SHAPE = default_shape(1.75)
 N_FRAMES = 4

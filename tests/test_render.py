@@ -10,14 +10,18 @@ import pytest
 
 from ipf_jax.body.shape import default_shape
 from ipf_jax.cli import main
-from ipf_jax.cli.demo import write_dataset
 from ipf_jax.data.calibration import write_json
 from ipf_jax.data.rundir import write_run_dir
 from ipf_jax.data.video import VideoReader
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.viz import overlay
 from ipf_jax.viz.render import render_run
-from ipf_jax.viz.synthetic import procedural_walk, render_masks, ring_cameras
+from ipf_jax.viz.synthetic import (
+    procedural_walk,
+    render_masks,
+    ring_cameras,
+    write_dataset,
+)
 
 SHAPE = default_shape(1.72)
 N = 4

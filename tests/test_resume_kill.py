@@ -20,9 +20,9 @@ import pytest
 
 from ipf_jax.body import default_shape
 from ipf_jax.cli import main
-from ipf_jax.cli.demo import write_dataset
 from ipf_jax.data.runfiles import POSE_COLUMNS
 from ipf_jax.viz import synthetic as syn
+from ipf_jax.viz.synthetic import write_dataset
 
 SHAPE = default_shape(1.75)
 N_FRAMES = 24

@@ -246,7 +246,7 @@ def test_fix_single_refuses_to_overwrite_the_run(walk, tmp_path, capsys):
 
 
 def test_fix_single_takes_the_camera_from_the_dataset(walk_masks, tmp_path, capsys):
-    from ipf_jax.cli.demo import write_dataset
+    from ipf_jax.viz.synthetic import write_dataset
 
     q, masks = walk_masks
     data = write_dataset(tmp_path / "data", [level_camera()], masks[:, None])

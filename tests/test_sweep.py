@@ -16,12 +16,12 @@ import pytest
 
 from ipf_jax.body import default_shape
 from ipf_jax.cli import main
-from ipf_jax.cli.demo import write_dataset
 from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, CsvAppender
 from ipf_jax.errors import IPFError
 from ipf_jax.sweep import backends, execute, load_config
 from ipf_jax.sweep.summary import TIMING_COLUMNS, pareto_front
 from ipf_jax.viz import synthetic as syn
+from ipf_jax.viz.synthetic import write_dataset
 
 N_FRAMES = 5
 # fixed settings of every test cell: known up axis and height, small chunk, no re-initialisation

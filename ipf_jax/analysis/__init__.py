@@ -1,1 +1,3 @@
-"""analysis"""
+"""Analysis of tracked (or marker) trajectories: gait, accuracy evaluation, exports, the bodytrack peer,
+single-camera post-processing, and the filter comparison.
+"""

@@ -9,14 +9,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ..body.model import LIMB_JOINTS, POINT_NAMES
 from ..body.shape import default_shape, shape_from_json
-from ..data.calibration import write_json
 from ..data.dataset import open_dataset
-from ..data.runfiles import JOINT_COLUMNS, check_writable
+from ..data.runfiles import check_writable
 from ..geometry.world import up_rotation
 from ..tracking.tracker import TrackSettings, track
 from ..viz import synthetic as syn
@@ -24,18 +22,6 @@ from .options import init_settings
 
 DEMO_HEIGHT_M = 1.72
 DEMO_FPS = 20.0
-
-
-def write_dataset(root: Path, cameras, masks: np.ndarray) -> Path:
-    """Write masks (T, C, H, W) and cameras in the bodytrack layout (CALIB/cameras.json, FGk/*.png)."""
-    (root / "CALIB").mkdir(parents=True, exist_ok=True)
-    write_json(cameras, root / "CALIB" / "cameras.json")
-    for c in range(masks.shape[1]):
-        folder = root / f"FG{c + 1}"
-        folder.mkdir(exist_ok=True)
-        for t in range(masks.shape[0]):
-            cv2.imwrite(str(folder / f"image{t:04d}.png"), masks[t, c].astype(np.uint8) * 255)
-    return root
 
 
 def add_parser(sub) -> None:
@@ -74,9 +60,9 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
     print("This is a SELF-RENDERED check of the machinery; see the README for accuracy on data the "
           "tracker did not render.")
     masks = syn.render_masks(q, shape, cams)
-    data = write_dataset(out / "dataset", cams, masks)
+    data = syn.write_dataset(out / "dataset", cams, masks)
     truth = syn.joints_of(q, shape)
-    _write_truth(data / "ground_truth.csv", truth)
+    syn.write_truth(data / "ground_truth.csv", truth)
     (data / "README.txt").write_text(
         "Self-rendered demo data (procedural walk, tracker's own capsule model). "
         "ground_truth.csv: joints.csv convention, metres, +z up.\n")
@@ -111,10 +97,3 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
     print(f"wrote {out / 'run'} (joints.csv, poses.csv, run.json), {out / 'demo_summary.json'}, {path}")
     print(f"rerun the tracker yourself: ipf-jax track {data} --out {out / 'run2'}")
     return 0
-
-
-def _write_truth(path: Path, joints: np.ndarray) -> None:
-    rows = [",".join(JOINT_COLUMNS)]
-    for t, pts in enumerate(joints):
-        rows.append(f"{t},{t / DEMO_FPS:.6f}," + ",".join(f"{v:.6f}" for v in pts.ravel()))
-    path.write_text("\n".join(rows) + "\n")

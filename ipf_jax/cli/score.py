@@ -30,9 +30,14 @@ def run(args) -> int:
     from ..data.dataset import open_dataset
     from ..data.silhouette import resize_mask
     from ..geometry.world import detect_up_axis, up_rotation
-    from ..likelihood.scorer import Scorer, make_observation, weights_from_counts
+    from ..likelihood.scorer import (
+        Scorer,
+        make_observation,
+        scoring_cameras,
+        weights_from_counts,
+    )
     from ..reference import likelihood as ref
-    from ..tracking.tracker import DEFAULT_RESOLUTION, _scoring_cameras
+    from ..tracking.tracker import DEFAULT_RESOLUTION
 
     ds = open_dataset(args.dataset)
     require(args.frame in ds.frames, f"frame {args.frame} is not in the dataset "
@@ -44,7 +49,7 @@ def run(args) -> int:
     masks = ds.masks(args.frame)
     up = args.up or ds.up_axis or detect_up_axis(ds.cameras, masks)
     U = up_rotation(up)
-    cams, scales = _scoring_cameras(ds.cameras, args.resolution or DEFAULT_RESOLUTION)
+    cams, scales = scoring_cameras(ds.cameras, args.resolution or DEFAULT_RESOLUTION)
     small = [m if s == 1.0 else resize_mask(m, c.height, c.width) for m, s, c in zip(masks, scales, cams)]
     obs = make_observation(small)
     out = {"dataset": str(ds.path), "frame": args.frame, "up_axis": up,

@@ -31,6 +31,7 @@ def run(args) -> int:
     from ..data.frames import select_frames
     from ..tracking.tracker import DEFAULT_RESOLUTION, TrackSettings
     from ..tracking.tracker import track as run_track
+    from ..viz.overlay import overlay_writer
 
     check_settings(args)
     ds = open_dataset(args.dataset)
@@ -46,7 +47,8 @@ def run(args) -> int:
         floor_range=floor_range(args),
         init=init_settings(args))
     res = run_track(ds, args.out, settings, frames=frames, resume=args.resume,
-                    progress=not args.quiet, overlay=args.overlay)
+                    progress=not args.quiet,
+                    frame_hook=overlay_writer(Path(args.out) / "overlay") if args.overlay else None)
     run = res.run
     print(f"tracked {run['frames']['done']} frames ({run['frames']['missing']} missing) of {ds.name} "
           f"with {run['filter']} ({run['evaluations_per_frame']} evaluations/frame), "

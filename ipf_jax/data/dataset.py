@@ -22,53 +22,23 @@ import numpy as np
 from ..errors import IPFError, load_json, require
 from ..geometry.camera import Camera
 from .calibration import read_bodytrack_cal, read_json
-
-_FRAME_RE = re.compile(r"(\d+)\.(bmp|png|jpg|jpeg|tif|tiff)$", re.IGNORECASE)
-
-
-def _numbered_files(folder: Path) -> dict[int, Path]:
-    files = {}
-    for p in folder.iterdir():
-        m = _FRAME_RE.search(p.name)
-        if m:
-            files[int(m.group(1))] = p
-    return files
-
+from .sources import MaskSource
 
 def _natural_key(p: Path):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
-
-
-class MaskFolder:
-    """Precomputed masks ``imageNNNN.png|bmp`` (non-zero = foreground), used as they are."""
-
-    def __init__(self, folder: Path):
-        self.folder = Path(folder)
-        self.files = _numbered_files(self.folder)
-        require(bool(self.files), "no numbered mask images (imageNNNN.png|bmp)", self.folder)
-
-    @property
-    def frames(self) -> list[int]:
-        return sorted(self.files)
-
-    def mask(self, frame: int) -> np.ndarray:
-        from .silhouette import read_mask
-
-        return read_mask(self.files[frame])
 
 
 class Dataset:
     """Cameras and their mask sources (one per camera, same frames)."""
 
     def __init__(self, path: Path, cameras: list[Camera], sources: list, *, fps: float | None = None,
-                 up_axis: str | None = None, image_folders: list[Path] | None = None, layout: str = ""):
+                 up_axis: str | None = None, layout: str = ""):
         self.path = Path(path)
         self.cameras = cameras
         self.sources = sources
         self.fps = fps
         self.up_axis = up_axis
         self.layout = layout
-        self.image_folders = image_folders or []
         require(len(cameras) == len(sources),
                 f"{len(cameras)} cameras in the calibration but {len(sources)} mask sources", self.path)
         frame_sets = [s.frames for s in sources]
@@ -91,29 +61,16 @@ class Dataset:
         for k, (src, cam) in enumerate(zip(self.sources, self.cameras), start=1):
             m = src.mask(frame)
             if m.shape != (cam.height, cam.width):
-                where = getattr(src, "files", {}).get(frame, self.path)
+                where = src.file(frame) if hasattr(src, "file") else self.path
                 raise IPFError(f"mask of camera {k} is {m.shape[1]}x{m.shape[0]} but its calibration "
                                f"says {cam.width}x{cam.height}", where)
             out.append(m)
         return out
 
     def images(self, frame: int) -> list[np.ndarray] | None:
-        """Camera images for overlays (grey or BGR), when the dataset has them; else None."""
-        sources = getattr(self, "sources", None) or []  # MemoryDataset has none
-        if sources and all(callable(getattr(s, "image", None)) for s in sources):
-            out = [s.image(frame) for s in sources]  # dataset.json sources
-            return None if any(im is None for im in out) else out
-        if not self.image_folders:
-            return None
-        from .silhouette import read_gray
-
-        out = []
-        for folder in self.image_folders:
-            files = _numbered_files(folder)
-            if frame not in files:
-                return None
-            out.append(read_gray(files[frame]))
-        return out
+        """Camera images for overlays, (H, W, 3) uint8 BGR, when every camera has them; else None."""
+        out = [s.image(frame) for s in self.sources]
+        return None if not out or any(im is None for im in out) else out
 
 
 def _check_principal_point(cam: Camera, path: Path) -> None:
@@ -127,7 +84,10 @@ def open_bodytrack(path: Path) -> Dataset:
     calib = path / "CALIB"
     fg = sorted([p for p in path.glob("FG*") if p.is_dir() and p.name[2:].isdigit()], key=_natural_key)
     require(bool(fg), "no FG1.. mask folders", path)
-    sources = [MaskFolder(f) for f in fg]
+    images = [path / f"CAM{f.name[2:]}" for f in fg]
+    have_images = all(p.is_dir() for p in images)
+    sources = [MaskSource(f, prefix=None, images=im if have_images else None)
+               for f, im in zip(fg, images)]
     first = [s.mask(s.frames[0]) for s in sources]
     if (calib / "cameras.json").exists():
         cams = read_json(calib / "cameras.json")
@@ -148,9 +108,7 @@ def open_bodytrack(path: Path) -> Dataset:
                 f"{len(cal_files)} calibration files but {len(fg)} FG folders", calib)
     for cam, f in zip(cams, fg):
         _check_principal_point(cam, f)
-    images = [path / f"CAM{f.name[2:]}" for f in fg]
-    images = images if all(p.is_dir() for p in images) else []
-    return Dataset(path, cams, sources, image_folders=images, layout="bodytrack")
+    return Dataset(path, cams, sources, layout="bodytrack")
 
 
 def open_dataset(path: str | Path) -> Dataset:
@@ -199,7 +157,7 @@ class MemoryDataset(Dataset):
         self.fps = fps
         self.up_axis = up_axis
         self.layout = "memory"
-        self.image_folders = []
+        self.sources = []  # no files: no camera images either
         self._index = {f: i for i, f in enumerate(self.frames)}
 
     def masks(self, frame: int) -> list[np.ndarray]:

@@ -17,7 +17,7 @@ from ..body.shape import BodyShape, default_shape
 from ..errors import IPFError, load_json, require
 from ..geometry.host import forward_kinematics
 from ..geometry.world import AXES, axis_vector, up_rotation
-from .runfiles import JOINT_COLUMNS, POSE_COLUMNS, read_table
+from .runfiles import JOINT_COLUMNS, POSE_COLUMNS, read_table, write_rows
 
 
 class Run(NamedTuple):
@@ -121,21 +121,6 @@ def sample_rate(run: Run) -> float:
 # Writing (tests, notebooks, and the tracker may reuse it)
 
 
-def write_table(path: str | Path, header: list[str], frames: np.ndarray, time_s: np.ndarray,
-                values: np.ndarray, decimals: int = 6) -> None:
-    """Write a CSV in the run-directory convention (``outputs.CsvAppender``'s, in one go).
-
-    header : ``frame``, ``time_s``, then one name per column of values (T, len(header) - 2).
-    NaN is written as ``nan``; ``decimals`` applies to values (6 = micrometres in metres).
-    """
-    table = np.column_stack([frames, time_s, values])
-    fmt = ["%d", "%.6f"] + [f"%.{decimals}f"] * (len(header) - 2)
-    try:
-        np.savetxt(path, table, fmt=fmt, delimiter=",", comments="", header=",".join(header))
-    except OSError as e:
-        raise IPFError(f"cannot write ({e})", path) from None
-
-
 def joints_from_poses(poses: np.ndarray, shape: BodyShape, up_axis: str) -> np.ndarray:
     """Reference forward kinematics of a trajectory.
 
@@ -173,9 +158,9 @@ def write_run_dir(run_dir: str | Path, poses: np.ndarray, *, shape: BodyShape | 
     poses = np.where(missing[:, None], np.nan, poses)
     joints = joints_from_poses(poses, shape, up_axis)
     time_s = frames / fps
-    write_table(run_dir / "joints.csv", JOINT_COLUMNS, frames, time_s,
+    write_rows(run_dir / "joints.csv", JOINT_COLUMNS, frames, time_s,
                 joints.reshape(len(poses), -1))
-    write_table(run_dir / "poses.csv", POSE_COLUMNS, frames, time_s, poses)
+    write_rows(run_dir / "poses.csv", POSE_COLUMNS, frames, time_s, poses)
     doc = {"fps": float(fps), "up_axis": up_axis, "up_vector": axis_vector(up_axis).tolist(),
            "shape": shape.to_json(), **(meta or {})}
     (run_dir / "run.json").write_text(json.dumps(doc, indent=1))

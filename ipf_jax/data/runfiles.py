@@ -24,6 +24,27 @@ def _fmt(values) -> str:
     return ",".join("nan" if not np.isfinite(v) else f"{v:.6f}" for v in values)
 
 
+def format_row(frame: int, time_s: float, values) -> str:
+    """One run-CSV line: frame, time (6 decimals), values (6 decimals, ``nan`` when not finite)."""
+    return f"{frame},{time_s:.6f},{_fmt(values)}\n"
+
+
+def write_rows(path: str | Path, columns: list[str], frames, time_s, values) -> None:
+    """A whole run CSV at once (what :class:`CsvAppender` writes row by row), atomically.
+
+    values : (T, len(columns) - 2).
+    """
+    path = Path(path)
+    text = ",".join(columns) + "\n" + "".join(
+        format_row(int(f), float(t), v) for f, t, v in zip(frames, time_s, np.asarray(values)))
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except OSError as e:
+        raise IPFError(f"cannot write ({e.strerror or e})", path) from None
+
+
 class CsvAppender:
     """Append rows to a CSV, flushing and fsyncing each one (crash-safe).
 
@@ -60,7 +81,7 @@ class CsvAppender:
     def write(self, frame: int, time_s: float, values: np.ndarray) -> None:
         if self._fh is None:
             self._start()
-        self._fh.write(f"{frame},{time_s:.6f},{_fmt(values)}\n")
+        self._fh.write(format_row(frame, time_s, values))
         self._fh.flush()
         os.fsync(self._fh.fileno())
 

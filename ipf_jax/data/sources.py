@@ -100,7 +100,7 @@ class _Cached:
 class MaskSource:
     """Numbered masks used as they are; ``images`` (same numbers) only for overlays."""
 
-    def __init__(self, folder: Path, *, prefix: str = "image", images: Path | None = None,
+    def __init__(self, folder: Path, *, prefix: str | None = "image", images: Path | None = None,
                  seg: Segmentation = Segmentation()):
         self.path = folder
         self._masks = ImageSequence(folder, prefix, mode="mask")
@@ -118,6 +118,10 @@ class MaskSource:
 
     def image(self, frame: int) -> np.ndarray | None:
         return None if self._images is None else self._images.read(self._index[frame])
+
+    def file(self, frame: int) -> Path:
+        """The mask file of ``frame`` (named in errors)."""
+        return self._masks.files[self._index[frame]]
 
 
 class SubtractionSource:

@@ -164,13 +164,18 @@ class ImageSequence(_FrameSource):
     allowed). Every image must have the first one's size.
     """
 
-    def __init__(self, folder: str | Path, prefix: str = "image", *, mode: str = "color",
+    def __init__(self, folder: str | Path, prefix: str | None = "image", *, mode: str = "color",
                  fps: float | None = None):
         self.path = Path(folder)
         if not self.path.exists():
             raise IPFError("image folder not found", self.path)
         require(self.path.is_dir(), "not a folder", self.path)
         require(mode in _READERS, f"unknown mode {mode!r} (color, gray, mask)")
+        if prefix is None:  # the name before the number that most images share ("image", "mask")
+            names = [re.fullmatch(rf"(.*?)(\d+){_IMAGE_EXT}", f.name, re.IGNORECASE)
+                     for f in self.path.iterdir()]
+            prefixes = [m.group(1) for m in names if m]
+            prefix = max(set(prefixes), key=prefixes.count) if prefixes else "image"
         pattern = re.compile(rf"{re.escape(prefix)}(\d+){_IMAGE_EXT}", re.IGNORECASE)
         numbered = {}
         for f in self.path.iterdir():

@@ -58,6 +58,13 @@ from .raster import (
 KERNELS = ("scanline", "dense")
 
 
+def scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
+    """The cameras scaled so their long side is at most ``resolution`` px, and each one's scale."""
+    require(16 <= resolution <= 2048, f"scoring resolution must be 16..2048 px (got {resolution})")
+    scales = [min(1.0, resolution / max(c.width, c.height)) for c in cameras]
+    return [c if s == 1.0 else c.scaled(s) for c, s in zip(cameras, scales)], scales
+
+
 class Observation(NamedTuple):
     """One frame's masks at scoring resolution, ready for the scorer.
 
@@ -288,6 +295,33 @@ class Scorer:
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
                        win_rows.astype(np.int32), win_words.astype(np.int32))
+
+    def stages(self, particles: np.ndarray, obs: Observation) -> dict:
+        """Each compiled stage as a zero-argument call on the first chunk of ``particles``, for
+        profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras), then per
+        camera ``intervals cam K``, ``words cam K`` and ``dense intervals cam K``. The windows are
+        planned for ``particles`` first, as :meth:`counts` does."""
+        caps, ext = self.geometry(particles)
+        win = self.plan(ext)
+        block = next(self._chunks(np.asarray(particles)))[1]
+        out = {"geometry (all cameras)": lambda: _geometry_jit(
+            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side)}
+        for c in range(len(self.cameras)):
+            cap, h, w, sz = caps[0][c], self.heights[c], self.widths[c], self.sizes[c]
+
+            def intervals(cap=cap, c=c, h=h, w=w, sz=sz):
+                return _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
+                                      long_side=self.long_side)
+
+            packed = intervals()
+            out[f"intervals cam {c + 1}"] = intervals
+            out[f"words cam {c + 1}"] = lambda packed=packed, c=c, sz=sz: _words_jit(
+                packed, obs.words[c], win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c],
+                n_win_words=sz.win_words, n_rows=sz.rows, n_words=sz.words)
+            out[f"dense intervals cam {c + 1}"] = lambda cap=cap, c=c, h=h, w=w, sz=sz: _dense_jit(
+                cap, win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
+                n_win_words=sz.win_words, q=self.q, long_side=self.long_side)
+        return out
 
     # -- scoring ---------------------------------------------------------------------------------
     def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False) -> np.ndarray:

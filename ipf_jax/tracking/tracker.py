@@ -18,7 +18,7 @@ import hashlib
 import json
 import time
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import jax
 import numpy as np
@@ -48,6 +48,7 @@ from ..likelihood.scorer import (
     Observation,
     Scorer,
     make_observation,
+    scoring_cameras,
     weights_from_counts,
 )
 from .contact import FloorContact
@@ -82,18 +83,25 @@ class TrackSettings(NamedTuple):
     floor_range: tuple[float, float] | None = None  # floor contact (ipf_jax.tracking.contact); None = off
 
 
+class FrameView(NamedTuple):
+    """A tracked frame as the scorer saw it, for hooks (overlays): masks (C of (H, W) bool) and
+    cameras at scoring resolution, the estimate ``pose`` (D,), its ``shape``, ``up`` (3, 3), weight."""
+
+    frame: int
+    masks: list
+    cameras: list
+    pose: np.ndarray
+    shape: BodyShape
+    up: np.ndarray
+    weight: float | None
+
+
 class RunResult(NamedTuple):
     out_dir: Path
     frames: list[int]
     poses: np.ndarray  # (T, D), nan rows for missing frames
     joints: np.ndarray  # (T, J, 3)
     run: dict
-
-
-def _scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
-    require(16 <= resolution <= 2048, f"scoring resolution must be 16..2048 px (got {resolution})")
-    scales = [min(1.0, resolution / max(c.width, c.height)) for c in cameras]
-    return [c if s == 1.0 else c.scaled(s) for c, s in zip(cameras, scales)], scales
 
 
 def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
@@ -151,7 +159,7 @@ class Tracker:
         self.limits: Limits = load_limits(settings.limits)
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
-        self.cameras, self.scales = _scoring_cameras(dataset.cameras, settings.resolution)
+        self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self.filter = self.make_filter(None)
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
@@ -221,7 +229,7 @@ class Tracker:
 
     # -- the loop ----------------------------------------------------------------------------
     def run(self, out_dir: Path, *, resume: bool = False, progress: bool = True,
-            overlay: bool = False) -> RunResult:
+            frame_hook: Callable[[FrameView], None] | None = None) -> RunResult:
         out_dir = check_writable(Path(out_dir))
         key = _settings_key(self.settings, self.dataset, self.frames)
         if resume:
@@ -329,12 +337,9 @@ class Tracker:
                         None if prev_anchor is None else prev_anchor.to_json(), anchor_height))
                     write_json_atomic(out_dir / "run.json", self.run_doc(per_frame, reinits, init_evals,
                                                                         shape, time.perf_counter() - t_start))
-                if overlay and rec["status"] != "missing":
-                    from ..viz.overlay import save_frame_overlay
-
-                    save_frame_overlay(out_dir / "overlay", frame, small, self.cameras,
-                                       state.particles[best], shape, self.U,
-                                       rec["weight"])
+                if frame_hook is not None and rec["status"] != "missing":
+                    frame_hook(FrameView(frame, small, self.cameras, state.particles[best], shape,
+                                         self.U, rec["weight"]))
         except IPFError as e:  # say where the run stopped and that its rows are safe
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
                     if (out_dir / checkpoint.NAME).exists() else "")
@@ -384,7 +389,11 @@ class Tracker:
 
 def track(dataset: Dataset, out_dir: str | Path, settings: TrackSettings = TrackSettings(), *,
           frames: list[int] | None = None, resume: bool = False, progress: bool = True,
-          overlay: bool = False) -> RunResult:
-    """Track ``dataset`` into ``out_dir`` (joints.csv, poses.csv, run.json). See module doc."""
+          frame_hook: Callable[[FrameView], None] | None = None) -> RunResult:
+    """Track ``dataset`` into ``out_dir`` (joints.csv, poses.csv, run.json). See module doc.
+
+    frame_hook : called after every frame with a person, with the frame's :class:`FrameView`
+        (e.g. :func:`ipf_jax.viz.overlay.overlay_writer` writes overlay PNGs: ``track --overlay``).
+    """
     return Tracker(dataset, settings, frames).run(Path(out_dir), resume=resume, progress=progress,
-                                                  overlay=overlay)
+                                                  frame_hook=frame_hook)

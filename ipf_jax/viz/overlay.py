@@ -189,3 +189,12 @@ def save_frame_overlay(out_dir: Path, frame: int, backgrounds, cameras, q, shape
     cv2.imwrite(str(path), frame_overlay(backgrounds, cameras, q, shape, U, weight, frame,
                                          long_side=480 if small else None))
     return path
+
+
+def overlay_writer(out_dir: Path):
+    """A tracker frame hook (:class:`ipf_jax.tracking.tracker.FrameView` -> PNG) writing
+    ``out_dir/frameNNNNN.png`` for every tracked frame (``ipf-jax track --overlay``)."""
+    def write(view) -> None:
+        save_frame_overlay(out_dir, view.frame, view.masks, view.cameras, view.pose, view.shape,
+                           view.up, view.weight)
+    return write

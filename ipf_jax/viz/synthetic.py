@@ -6,10 +6,15 @@ accuracy claims use ``mocap_walk_render`` (an independent, non-capsule renderer)
 """
 from __future__ import annotations
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 
 from ..body.model import DOF_INDEX, NUM_DOF
 from ..body.shape import BodyShape
+from ..data.calibration import write_json
+from ..data.runfiles import JOINT_COLUMNS
 from ..geometry.camera import Camera
 from ..geometry.host import forward_kinematics, project_capsules
 from ..geometry.posing import place_on_floor
@@ -122,3 +127,23 @@ def add_mask_noise(masks: np.ndarray, rng: np.random.Generator, *, flip_fraction
             yy, xx = np.ogrid[-r:r + 1, -r:r + 1]
             out[idx][cy - r:cy + r + 1, cx - r:cx + r + 1] |= (yy * yy + xx * xx) <= r * r
     return out
+
+
+def write_dataset(root: Path, cameras, masks: np.ndarray) -> Path:
+    """Write masks (T, C, H, W) and cameras in the bodytrack layout (CALIB/cameras.json, FGk/*.png)."""
+    (root / "CALIB").mkdir(parents=True, exist_ok=True)
+    write_json(cameras, root / "CALIB" / "cameras.json")
+    for c in range(masks.shape[1]):
+        folder = root / f"FG{c + 1}"
+        folder.mkdir(exist_ok=True)
+        for t in range(masks.shape[0]):
+            cv2.imwrite(str(folder / f"image{t:04d}.png"), masks[t, c].astype(np.uint8) * 255)
+    return root
+
+
+def write_truth(path: Path, joints: np.ndarray, fps: float = 20.0) -> None:
+    """Joints (T, J, 3) as a ground-truth CSV in the joints.csv convention (frame t at t / fps)."""
+    rows = [",".join(JOINT_COLUMNS)]
+    for t, pts in enumerate(joints):
+        rows.append(f"{t},{t / fps:.6f}," + ",".join(f"{v:.6f}" for v in pts.ravel()))
+    path.write_text("\n".join(rows) + "\n")

@@ -20,7 +20,7 @@ import numpy as np
 from ...body.model import POINT_NAMES
 from ...errors import IPFError, load_json
 from ...geometry.world import AXES
-from .io import UNIT_SCALE, Trajectories, make_trajectories
+from .trajectories import UNIT_SCALE, Trajectories, make_trajectories
 
 DEFAULT_MAP = Path(__file__).with_name("maps") / "rajagopal.json"
 

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...data.rundir import joints_from_poses, read_run, write_table
-from ...data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, check_writable
+from ...data.rundir import joints_from_poses, read_run
+from ...data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, check_writable, write_rows
 from ...errors import require
 from ...geometry.camera import Camera
 from ...geometry.placement import steady_depth
@@ -65,9 +65,9 @@ def fix_single_camera(run_dir: str | Path, out_dir: str | Path, *, legs: bool = 
                                   "slope_m_per_frame": round(float(fit[1]), 6),
                                   "max_shift_m": round(float(np.abs(shifts).max()), 4)}
     T = len(run.frames)
-    write_table(out / "joints.csv", JOINT_COLUMNS, run.frames, run.time_s, joints.reshape(T, -1))
+    write_rows(out / "joints.csv", JOINT_COLUMNS, run.frames, run.time_s, joints.reshape(T, -1))
     if poses is not None:
-        write_table(out / "poses.csv", POSE_COLUMNS, run.frames, run.time_s, poses)
+        write_rows(out / "poses.csv", POSE_COLUMNS, run.frames, run.time_s, poses)
     meta = dict(run.meta)
     meta["single_camera"] = record
     (out / "run.json").write_text(json.dumps(meta, indent=1))
