@@ -24,6 +24,7 @@ from ..geometry.camera import Camera
 from .calibration import read_bodytrack_cal, read_json
 from .sources import MaskSource
 
+
 def _natural_key(p: Path):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
 

@@ -20,23 +20,24 @@ JOINT_COLUMNS = ["frame", "time_s"] + [f"{p}_{a}" for p in POINT_NAMES for a in 
 POSE_COLUMNS = ["frame", "time_s"] + list(DOF_NAMES)
 
 
-def _fmt(values) -> str:
-    return ",".join("nan" if not np.isfinite(v) else f"{v:.6f}" for v in values)
+def _fmt(values, decimals: int = 6) -> str:
+    return ",".join("nan" if not np.isfinite(v) else f"{v:.{decimals}f}" for v in values)
 
 
-def format_row(frame: int, time_s: float, values) -> str:
-    """One run-CSV line: frame, time (6 decimals), values (6 decimals, ``nan`` when not finite)."""
-    return f"{frame},{time_s:.6f},{_fmt(values)}\n"
+def format_row(frame: int, time_s: float, values, decimals: int = 6) -> str:
+    """One run-CSV line: frame, time (6 decimals), values (``decimals``, ``nan`` when not finite)."""
+    return f"{frame},{time_s:.6f},{_fmt(values, decimals)}\n"
 
 
-def write_rows(path: str | Path, columns: list[str], frames, time_s, values) -> None:
+def write_rows(path: str | Path, columns: list[str], frames, time_s, values,
+               decimals: int = 6) -> None:
     """A whole run CSV at once (what :class:`CsvAppender` writes row by row), atomically.
 
-    values : (T, len(columns) - 2).
+    values : (T, len(columns) - 2); ``decimals`` of the values (6: micrometres in metres).
     """
     path = Path(path)
     text = ",".join(columns) + "\n" + "".join(
-        format_row(int(f), float(t), v) for f, t, v in zip(frames, time_s, np.asarray(values)))
+        format_row(int(f), float(t), v, decimals) for f, t, v in zip(frames, time_s, np.asarray(values)))
     tmp = path.with_name(path.name + ".tmp")
     try:
         tmp.write_text(text)

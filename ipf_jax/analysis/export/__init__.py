@@ -9,8 +9,8 @@ from ...data.rundir import (
            read_run,
            sample_rate,
            write_run_dir,
-           write_table,
 )
+from ...data.runfiles import write_rows
 from .axes import file_rotation, to_file_frame
 from .bvh import SKELETON, export_bvh
 from .bvh_reader import BvhFile, bvh_positions, read_bvh
@@ -18,6 +18,6 @@ from .c3d import export_c3d
 from .joints_csv import export_csv
 from .trc import export_trc
 
-__all__ = ["Run", "read_run", "write_run_dir", "write_table", "joints_from_poses", "sample_rate",
+__all__ = ["Run", "read_run", "write_run_dir", "write_rows", "joints_from_poses", "sample_rate",
            "file_rotation", "to_file_frame", "export_trc", "export_c3d",
            "export_bvh", "SKELETON", "read_bvh", "bvh_positions", "BvhFile", "export_csv"]

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...data.rundir import Run, write_table
-from ...data.runfiles import JOINT_COLUMNS
+from ...data.rundir import Run
+from ...data.runfiles import JOINT_COLUMNS, write_rows
 from .axes import decimals, to_file_frame
 
 
@@ -22,5 +22,5 @@ def export_csv(run: Run, path: str | Path, *, up: str | None = None, units: str 
     up = run.up_axis if up is None else up
     pts = to_file_frame(run.joints, run.up_axis, up, units)  # (T, J, 3)
     header = JOINT_COLUMNS[:2] + [c if units == "m" else f"{c}_{units}" for c in JOINT_COLUMNS[2:]]
-    write_table(path, header, run.frames, run.time_s, pts.reshape(len(pts), -1), decimals(units))
+    write_rows(path, header, run.frames, run.time_s, pts.reshape(len(pts), -1), decimals(units))
     return path
