@@ -20,3 +20,9 @@ def cache_dir() -> Path:
     env = os.environ.get("IPF_JAX_CACHE")
     base = Path(env) if env else Path.home() / ".cache" / "ipf-jax"
     return base
+
+
+def expand_path(value: str, base: Path) -> Path:
+    """A path from a config, manifest or option: ``~`` and ``$VARS`` expanded, relative to ``base``."""
+    p = Path(os.path.expandvars(os.path.expanduser(value)))
+    return (p if p.is_absolute() else Path(base) / p).resolve()

@@ -209,7 +209,7 @@ CASES = {
         lambda ds: ["--budget", "10", "--points-per-dof", "2", "--"], "--budget 10",
         r"10 particles cannot hold one grid", None),
     "height_out_of_range": (
-        lambda ds: ["--height", "3.5"], "--height 3.5", r"outside 0\.5\.\.2\.6 m", None),
+        lambda ds: ["--height", "3.5"], "--height 3.5", r"must be 0\.5\.\.2\.6 m", None),
     "frames_select_nothing": (
         lambda ds: ["--frames", "100:200"], "--frames 100:200", r"selects none of the frames",
         None),

@@ -45,6 +45,7 @@ from ..errors import require
 from ..filters import registry
 from ..filters.base import Filter
 from ..geometry.host import forward_kinematics
+from ..tracking.settings import DEFAULT_FPS
 from ..tracking.tracker import Tracker, TrackSettings
 
 
@@ -149,7 +150,8 @@ def parse_filters(text: str | Sequence[str]) -> list[str]:
 def _initial_pose(dataset: Dataset, settings: TrackSettings, first: int) -> tuple[TrackSettings, int]:
     """Settings with the shared initial pose and height (automatic initialisation run once)."""
     probe = Tracker(dataset, settings, [first])
-    obs, small = probe.observe(first)
+    seen = probe.observe(first)
+    obs, small = seen.obs, seen.masks
     require(bool(obs.active.any()), f"frame {first} has no silhouette in any camera: start the "
             "comparison on a frame where the subject is seen (--frames)", dataset.path)
     if settings.init_pose is not None:
@@ -195,8 +197,9 @@ def compare(dataset: Dataset, out_dir: str | Path, filters: str | Sequence[str],
     require(not unused, f"option(s) {', '.join(unused)} apply to none of {', '.join(names)}")
     per_filter = {n: settings._replace(filter=n, filter_options=registry.options_for(n, given),
                                        budget=budget, confidence_drop=0.0) for n in names}
+    fps = settings.fps or dataset.fps or DEFAULT_FPS
     for n in names:  # fail on impossible settings before any tracking
-        Tracker(dataset, per_filter[n], frames[:1])
+        registry.resolve(n, per_filter[n].filter_options, fps, budget=budget)
     out_dir = check_writable(Path(out_dir))
     load = [os.getloadavg()[0]]
     shared, init_evals = _initial_pose(dataset, per_filter[names[0]], frames[0])

@@ -13,6 +13,7 @@ from ..profiling import (
     load_scene,
     machine,
 )
+from .options import add_common, add_option
 
 
 # -- the command -----------------------------------------------------------------------------------
@@ -25,18 +26,21 @@ def _ints(text: str) -> list[int]:
 
 def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="throughput of the measure step (JAX vs NumPy) and tracking s/frame")
-    p.add_argument("--json", required=True, help="output file: a JSON list of records")
+    add_common(p, "json", help="output file: a JSON list of records")
     p.add_argument("--data", help=f"bodytrack sequence folder (default: <shared data>/{DATASET})")
     p.add_argument("--quick", action="store_true", help="small subset: 320x240, 1 camera, 1024 particles")
-    p.add_argument("--backends", default=",".join(BACKENDS))
+    p.add_argument("--backends", default=",".join(BACKENDS), help="comma-separated measure-step "
+                   "backends (default: all of " + ", ".join(BACKENDS) + ")")
     p.add_argument("--widths", default="160,320,640", help="scoring widths (height: 3/4)")
-    p.add_argument("--cameras", default="1,4")
-    p.add_argument("--particles", default="1024,6561,16384", help="particle counts (JAX backends)")
+    add_common(p, "cameras", default="1,4", help="camera counts, comma-separated (default 1,4)")
+    add_option(p, "particles", type=str, default="1024,6561,16384",
+               help="particle counts of the JAX backends, comma-separated (default 1024,6561,16384)")
     p.add_argument("--numpy-particles", type=int, default=512, help="poses for numpy-scanline")
     p.add_argument("--reference-particles", type=int, default=8, help="poses for numpy-reference")
-    p.add_argument("--repeats", type=int, default=3)
-    p.add_argument("--budget", type=float, default=60.0, help="stop repeating after this many s")
-    p.add_argument("--chunk", type=int, help="particles per compiled call (default: the scorer's)")
+    p.add_argument("--repeats", type=int, default=3, help="timed repeats per record (default 3)")
+    add_option(p, "budget", type=float, default=60.0, help="seconds per record after which the "
+               "repeats stop (default 60)")
+    add_option(p, "chunk", help="particles per compiled call (default: the scorer's)")
     p.add_argument("--track-widths", default="320",
                    help="scoring widths for the tracking records (ipf 6561 and apf 4000x5); '' = none")
     p.add_argument("--cold", action="store_true", help="disable the persistent compilation cache")

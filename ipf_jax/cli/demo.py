@@ -16,9 +16,10 @@ from ..body.shape import default_shape, shape_from_json
 from ..data.dataset import open_dataset
 from ..data.runfiles import check_writable
 from ..geometry.world import up_rotation
+from ..tracking.settings import init_settings
 from ..tracking.tracker import TrackSettings, track
 from ..viz import synthetic as syn
-from .options import init_settings
+from .options import add_common, add_option
 
 DEMO_HEIGHT_M = 1.72
 DEMO_FPS = 20.0
@@ -26,14 +27,13 @@ DEMO_FPS = 20.0
 
 def add_parser(sub) -> None:
     p = sub.add_parser("demo", help="self-rendered walk: render, track, report error and speed (no downloads)")
-    p.add_argument("--out", default="ipf-jax-demo", help="output folder (default ./ipf-jax-demo)")
+    add_common(p, "out", required=False, default="ipf-jax-demo",
+               help="output folder (default ./ipf-jax-demo)")
     p.add_argument("--num-frames", type=int, default=24, help="how many frames to render and track "
                    "(default 24)")
-    p.add_argument("--cameras", type=int, default=3, help="how many virtual cameras, 1..8 (default 3)")
-    p.add_argument("--top-m", type=int, default=None, help="IPF M (default 81)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the tracker (default 0)")
-    p.add_argument("--init-budget", default="default", choices=["default", "small"],
-                   help="effort of the automatic initialisation (small: ~10x cheaper)")
+    add_common(p, "cameras", type=int, default=3, help="how many virtual cameras, 1..8 (default 3)")
+    for key in ("top_m", "seed", "init_budget"):
+        add_option(p, key)
     p.set_defaults(func=run)
 
 
@@ -41,7 +41,7 @@ def run(args) -> int:
     from .demo import run_demo
 
     return run_demo(Path(args.out), n_frames=args.num_frames, n_cameras=args.cameras, top_m=args.top_m,
-                    seed=args.seed, init=init_settings(args))
+                    seed=args.seed or 0, init=init_settings(args.init_budget or "default"))
 
 
 def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | None = None,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.evaluation.metrics import ALIGN_MODES
+from .options import add_common
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -21,7 +22,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "displacement.png (paper figure 7) into --out. See docs/evaluation.md.")
     p.add_argument("estimate", metavar="ESTIMATE.csv", help="estimate, e.g. a run's joints.csv")
     p.add_argument("truth", metavar="TRUTH.csv", help="reference, e.g. ground_truth.csv")
-    p.add_argument("--out", required=True, help="output folder (created)")
+    add_common(p, "out")
     p.add_argument("--joints", help="comma-separated names to score (default: the 12 limb joints "
                                     "when both files have them, else every shared name)")
     p.add_argument("--align", choices=ALIGN_MODES, default="none",

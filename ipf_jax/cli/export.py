@@ -25,6 +25,7 @@ EXPORTERS = {
     "bvh": (export_bvh, "+y", "m"),
     "csv": (export_csv, None, "m"),
 }
+from .options import add_common, add_option
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -36,13 +37,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("run_dir", metavar="RUN_DIR", help="directory written by 'ipf-jax track'")
     p.add_argument("--format", choices=tuple(EXPORTERS),
                    help="output format (default: from the --out suffix)")
-    p.add_argument("--out", required=True, metavar="FILE", help="output file")
-    p.add_argument("--up", choices=AXES, metavar="AXIS",
-                   help="up axis in the file, one of " + " ".join(AXES) + " (write --up=-z for a "
-                        "negative axis); default: +y for trc and bvh, the run's world frame for "
-                        "c3d and csv")
-    p.add_argument("--units", choices=tuple(UNIT_SCALE),
-                   help="length unit; default: mm for trc and c3d, m for bvh and csv")
+    add_common(p, "out", metavar="FILE", help="output file")
+    add_option(p, "up_axis", help="up axis in the file, one of " + " ".join(AXES) + " (write "
+               "--up=-z for a negative axis); default: +y for trc and bvh, the run's world frame "
+               "for c3d and csv")
+    add_common(p, "units", choices=tuple(UNIT_SCALE),
+               help="length unit; default: mm for trc and c3d, m for bvh and csv")
     p.set_defaults(func=run)
     return p
 
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
                            f"({', '.join(EXPORTERS)})", out)
         export, up, units = EXPORTERS[fmt]
         run_data = read_run(args.run_dir)
-        export(run_data, out, up=args.up or up, units=args.units or units)
+        export(run_data, out, up=args.up_axis or up, units=args.units or units)
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

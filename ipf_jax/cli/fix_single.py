@@ -9,6 +9,7 @@ from pathlib import Path
 from ..analysis.singlecam import MEETING_M, MIN_GAIN_M, fix_single_camera
 from ..errors import IPFError, require
 from ..geometry.camera import Camera
+from .options import add_common
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -19,9 +20,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Detect and correct left/right leg swaps (docs/single_camera.md) and move each "
                     "frame's body along its viewing ray to a steady depth from the camera. Writes "
                     "joints.csv, poses.csv and run.json into --out.")
-    p.add_argument("run_dir")
-    p.add_argument("--out", required=True, help="folder for the corrected run (not RUN_DIR)")
-    p.add_argument("--dataset", help="dataset folder for the camera (default: run.json's)")
+    p.add_argument("run_dir", help="a folder written by ipf-jax track (one camera)")
+    add_common(p, "out", help="folder for the corrected run (not RUN_DIR)")
+    add_common(p, "dataset", help="dataset folder for the camera (default: run.json's)")
     p.add_argument("--camera", help="camera name or 1-based number (default: the only one)")
     p.add_argument("--keep-legs", action="store_true", help="do not correct leg swaps")
     p.add_argument("--keep-depth", action="store_true", help="do not steady the depth")

@@ -14,7 +14,7 @@ from ..analysis.gait.events import DEFAULT_METHOD, METHODS
 from ..analysis.gait.filtering import DEFAULT_CUTOFF_HZ
 from ..analysis.gait.io import UNIT_SCALE
 from ..errors import IPFError
-from ..geometry.world import AXES
+from .options import add_common, add_option
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -25,15 +25,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "parameters; writes gait.json, steps.csv, strides.csv, PNG plots and "
                     "report.html into --out.")
     p.add_argument("input", help="joints.csv (tracker output or same convention), .trc or .c3d")
-    p.add_argument("--out", required=True, help="output folder (created)")
+    add_common(p, "out")
     p.add_argument("--marker-map", default=None,
                    help="JSON role -> marker name(s) for .trc/.c3d (default: OpenSim Rajagopal)")
     p.add_argument("--method", choices=METHODS, default=DEFAULT_METHOD,
                    help=f"event detection method (default {DEFAULT_METHOD})")
-    p.add_argument("--up", choices=AXES, default=None,
-                   help="up axis of the input (default: run.json, C3D, else +y for markers)")
-    p.add_argument("--units", choices=tuple(UNIT_SCALE), default=None,
-                   help="units of the input coordinates (default: as the file says)")
+    add_option(p, "up_axis", help="up axis of the input (default: run.json, C3D, else +y for markers)")
+    add_common(p, "units", choices=tuple(UNIT_SCALE), default=None,
+               help="units of the input coordinates (default: as the file says)")
     p.add_argument("--cutoff", type=float, default=DEFAULT_CUTOFF_HZ,
                    help=f"low-pass cut-off in Hz (default {DEFAULT_CUTOFF_HZ:g}; at most fps/4)")
     p.set_defaults(func=run)
@@ -47,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from ..analysis.gait.report import write_outputs
 
     try:
-        traj = load(args.input, marker_map=args.marker_map, up=args.up, units=args.units)
+        traj = load(args.input, marker_map=args.marker_map, up=args.up_axis, units=args.units)
         result = analyse(traj, method=args.method, cutoff_hz=args.cutoff)
         files = write_outputs(result, args.out)
     except IPFError as e:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..viz.render import MAX_SIDE, MIN_SIDE, render_run
+from .options import add_common, add_option
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -15,18 +16,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "frame's weight. --out FILE.mp4|.avi writes a video, FILE.png one frame, "
                     "anything else a folder of PNGs.")
     p.add_argument("run_dir", help="a folder written by ipf-jax track")
-    p.add_argument("--out", required=True, help="FILE.mp4 | FILE.avi | FILE.png (one frame) | DIR")
-    p.add_argument("--dataset", help="dataset folder (default: the one named in run.json)")
-    p.add_argument("--cameras", help="comma-separated camera names or 1-based numbers (default all)")
+    add_common(p, "out", help="FILE.mp4 | FILE.avi | FILE.png (one frame) | DIR")
+    add_common(p, "dataset")
+    add_common(p, "cameras")
     bg = p.add_mutually_exclusive_group()
     bg.add_argument("--images", action="store_true", help="draw over camera images (default when "
                     "the dataset has them)")
     bg.add_argument("--masks", action="store_true", help="draw over the silhouette masks")
-    p.add_argument("--frames", help="A:B (B excluded) or A: frame numbers of the run to draw")
+    add_option(p, "frames", help="frame numbers of the run to draw: A:B (B excluded), A:, A:B:S or A "
+               "(default: all)")
     p.add_argument("--size", type=int, help=f"long side of each camera view in pixels (default: "
                    f"the camera's, within {MIN_SIDE}..{MAX_SIDE})")
-    p.add_argument("--fps", type=float, help="video frame rate (default: the run's)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_option(p, "fps", help="video frame rate (default: the run's)")
+    add_common(p, "quiet")
     p.set_defaults(func=run)
     return p
 

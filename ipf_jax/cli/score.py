@@ -9,19 +9,21 @@ import numpy as np
 
 from ..data.runfiles import read_pose_rows
 from ..errors import require
+from .options import add_common, add_option
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("score", help="likelihood of given poses on one frame (JAX and/or NumPy)")
-    p.add_argument("dataset")
-    p.add_argument("--frame", type=int, required=True)
+    p = sub.add_parser("score", help="likelihood of given poses on one frame (JAX and/or NumPy)",
+                       description="Score every pose of a poses.csv-convention file on one frame: "
+                                   "Nc, Ns, Nm and w per camera, and the mean w (docs/formats.md).")
+    p.add_argument("dataset", help="a dataset folder (bodytrack layout or a dataset.json)")
+    p.add_argument("--frame", type=int, required=True, help="the frame number to score on")
     p.add_argument("--poses", required=True, help="CSV with one named column per DOF (poses.csv convention)")
-    p.add_argument("--out", required=True, help="output JSON")
-    p.add_argument("--backend", default="jax", choices=["jax", "numpy", "both"])
-    p.add_argument("--resolution", type=int, default=None)
-    p.add_argument("--height", type=float, default=None)
-    p.add_argument("--shape")
-    p.add_argument("--up")
+    add_common(p, "out", help="output JSON file")
+    add_common(p, "backend", default="jax", choices=["jax", "numpy", "both"],
+               help="jax (the scorer), numpy (the per-pixel reference) or both, compared")
+    for key in ("resolution", "height_m", "shape_file", "up_axis"):
+        add_option(p, key)
     p.set_defaults(func=run)
 
 
@@ -43,11 +45,11 @@ def run(args) -> int:
     require(args.frame in ds.frames, f"frame {args.frame} is not in the dataset "
             f"({min(ds.frames)}..{max(ds.frames)})", ds.path)
     poses = read_pose_rows(args.poses)
-    shape = load_shape(args.shape) if args.shape else default_shape()
-    if args.height:
-        shape = shape.scaled_to(args.height)
+    shape = load_shape(args.shape_file) if args.shape_file else default_shape()
+    if args.height_m:
+        shape = shape.scaled_to(args.height_m)
     masks = ds.masks(args.frame)
-    up = args.up or ds.up_axis or detect_up_axis(ds.cameras, masks)
+    up = args.up_axis or ds.up_axis or detect_up_axis(ds.cameras, masks)
     U = up_rotation(up)
     cams, scales = scoring_cameras(ds.cameras, args.resolution or DEFAULT_RESOLUTION)
     small = [m if s == 1.0 else resize_mask(m, c.height, c.width) for m, s, c in zip(masks, scales, cams)]

@@ -11,22 +11,23 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..body.limits import PRESETS
+from ..data.frames import describe
 from ..errors import require
 from ..sweep.backends import BACKENDS
 from ..sweep.spec import resolve
-from .options import filter_options
+from ..tracking.options import resolve_path, split
+from .options import add_common, values_from_args
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", required=True, help="output folder; rerun with the same folder to resume")
-    p.add_argument("--backend", choices=BACKENDS, default="local",
-                   help="local (default: in this process) or ray (one task per cell; pip install 'ipf-jax[ray]')")
+    add_common(p, "out", help="output folder; rerun with the same folder to resume")
+    add_common(p, "backend", choices=BACKENDS, default="local",
+               help="local (default: in this process) or ray (one task per cell; pip install 'ipf-jax[ray]')")
     p.add_argument("--address", help="Ray: address of an existing cluster (default: start a local Ray)")
     p.add_argument("--num-cpus", type=int, help="Ray: CPUs of the local Ray it starts (default: all)")
     p.add_argument("--retry-failed", action="store_true", help="rerun cells whose record says failed")
     p.add_argument("--dry-run", action="store_true", help="list the cells and what is done, run nothing")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_common(p, "quiet")
 
 
 def add_parser(subparsers) -> None:
@@ -38,7 +39,7 @@ def add_parser(subparsers) -> None:
         description="Run every combination of the settings listed in CONFIG.toml on its datasets, "
                     "one record per cell in DIR/cells (a rerun skips finished cells), then write "
                     "DIR/summary.csv and DIR/pareto.png. See docs/evaluation.md.")
-    p.add_argument("config", metavar="CONFIG.toml")
+    p.add_argument("config", metavar="CONFIG.toml", help="the sweep's TOML (docs/evaluation.md)")
     _common(p)
     p.set_defaults(func=run_sweep)
 
@@ -47,7 +48,8 @@ def add_parser(subparsers) -> None:
         description="Track every recording listed in MANIFEST (one dataset folder per line, "
                     "optionally ', truth.csv'); failures are recorded and the others go on; "
                     "DIR/summary.csv and summary.json say what succeeded and what failed and why.")
-    p.add_argument("manifest", metavar="MANIFEST")
+    p.add_argument("manifest", metavar="MANIFEST", help="one dataset folder per line, optionally "
+                   "', truth.csv' (docs/evaluation.md)")
     _common(p)
     add_tracking_options(p)
     p.set_defaults(func=run_batch)
@@ -135,25 +137,21 @@ def settings_from_args(args, base: Path | None = None) -> dict:
     """The spec fields shared by every item, from ``track``-style options (``add_tracking_options``);
     relative file options are relative to ``base`` (default: the working directory)."""
     base = Path.cwd() if base is None else base
-    options = filter_options(args)
+    options, track, run = split(values_from_args(args))
     if "interesting" in options:
         options["interesting"] = list(options["interesting"])
-    track = {"budget": args.budget, "resolution": args.resolution, "fps": args.fps, "height_m": args.height,
-             "shape_file": str(resolve(args.shape, base)) if args.shape else None,
-             "limits": args.limits if args.limits in PRESETS else str(resolve(args.limits, base)),
-             "up_axis": args.up, "seed": args.seed, "chunk": args.chunk, "kernel": args.kernel,
-             "floor_range": None if args.floor_range is None else list(args.floor_range)}
-    frames = None
-    if args.frames is not None:
-        sl = args.frames
-        frames = ":".join("" if v is None else str(v) for v in (sl.start, sl.stop, sl.step))
+    for key in ("shape_file", "limits"):
+        if key in track:
+            track[key] = resolve_path(track[key], base)
+    if "floor_range" in track:
+        track["floor_range"] = list(track["floor_range"])
+    frames = describe(run["frames"]) if "frames" in run else None
     init_pose = None
-    if args.init_pose:
-        init_pose = resolve(args.init_pose, base)
+    if run.get("init_pose"):
+        init_pose = resolve(run["init_pose"], base)
         require(init_pose.suffix.lower() == ".csv", "batch takes --init-pose as a poses.csv-convention "
                 "file (a bodytrack InitialPose.txt belongs to one recording)", init_pose)
         require(init_pose.is_file(), "initial pose file not found", init_pose)
         init_pose = str(init_pose)
-    return {"filter": args.filter, "options": options, "frames": frames, "init_pose": init_pose,
-            "track": {k: v for k, v in track.items() if v is not None},
-            "eval": {"joints": None, "align": "none"}}
+    return {"filter": track.pop("filter", "ipf"), "options": options, "frames": frames,
+            "init_pose": init_pose, "track": track, "eval": {"joints": None, "align": "none"}}

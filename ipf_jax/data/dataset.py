@@ -166,7 +166,7 @@ class MemoryDataset(Dataset):
         return [self._masks[i, c, : cam.height, : cam.width] for c, cam in enumerate(self.cameras)]
 
 
-def pick_cameras(cameras, text: str | None, option: str = "--cameras") -> list[int]:
+def pick_cameras(cameras, text: str | None, option: str = "cameras") -> list[int]:
     """Indices of the cameras named in ``text`` (comma-separated names or 1-based numbers);
     ``option`` names the setting in the error."""
     if not text:

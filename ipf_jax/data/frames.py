@@ -17,7 +17,7 @@ from ..errors import IPFError, IPFWarning
 FORMS = '"A", "A:B", "A:" or "A:B:S" (frame numbers, B excluded)'
 
 
-def parse_frames(value, where: str = "--frames", path: str | Path | None = None) -> slice:
+def parse_frames(value, where: str = "frames", path: str | Path | None = None) -> slice:
     """A frame range (see module doc) -> ``slice`` of frame numbers; IPFError names ``where``."""
     if isinstance(value, slice):
         return value
@@ -43,7 +43,7 @@ def describe(sl: slice) -> str:
     return text + (f":{sl.step}" if sl.step not in (None, 1) else "")
 
 
-def select_frames(frames: Sequence[int], sl: slice | None, *, where: str = "--frames",
+def select_frames(frames: Sequence[int], sl: slice | None, *, where: str = "frames",
                   path: str | Path | None = None, warn: bool = True) -> list[int]:
     """The frame numbers of ``frames`` that ``sl`` names, in order.
 

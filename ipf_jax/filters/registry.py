@@ -1,4 +1,4 @@
-"""Filter names -> builders, and the mapping of a likelihood budget onto each filter's parameters.
+"""Filter names -> settings and builders, and the mapping of a likelihood budget onto each filter.
 
 A budget is a number of likelihood evaluations per frame. Each filter fills the parameters the
 user did not give so that it spends as much of the budget as it can without exceeding it:
@@ -11,10 +11,14 @@ sir       particles = budget
 
 Explicit parameters win over the mapping; if they need more than the budget, that is an
 :class:`~ipf_jax.errors.IPFError` (the budget is a ceiling, never exceeded silently).
+:func:`resolve` does all of that on the settings alone (cheap: nothing is built), :func:`make`
+builds the filter from them. The options each filter takes are its settings' fields
+(:data:`OPTIONS`), so they are declared once, with their defaults, in the filter's module.
 """
 from __future__ import annotations
 
 import numbers
+from typing import NamedTuple
 
 from ..body.limits import Limits
 from ..errors import IPFError, require
@@ -22,19 +26,24 @@ from . import apf, ipf, sir
 from .base import Filter
 
 NAMES = ("ipf", "apf", "sir")
+_MODULES = {"ipf": ipf, "apf": apf, "sir": sir}
+SETTINGS = {"ipf": ipf.IPFSettings, "apf": apf.APFSettings, "sir": sir.SIRSettings}
 
-#: The options each filter understands (keys of ``make``'s ``options``).
+#: The options each filter understands (keys of ``make``'s ``options``): its settings' fields, and
+#: ``particles`` (for IPF: N = M x I).
 OPTIONS: dict[str, tuple[str, ...]] = {
-    "ipf": ("particles", "top_m", "points_per_dof", "interesting", "max_speed_deg_s",
-            "interval_width_deg", "noise_scale"),
-    "apf": ("particles", "layers", "survival", "noise_scale", "noise_decay"),
-    "sir": ("particles", "noise_scale"),
-}
+    name: tuple(dict.fromkeys(("particles", *cls._fields))) for name, cls in SETTINGS.items()}
 
 
 def check_name(name: str) -> None:
     if name not in NAMES:
         raise IPFError(f"unknown filter {name!r} (choose {', '.join(NAMES)})")
+
+
+def defaults(name: str) -> dict:
+    """Filter ``name``'s default settings (option -> value)."""
+    check_name(name)
+    return SETTINGS[name]()._asdict()
 
 
 def options_for(name: str, options: dict) -> dict:
@@ -43,8 +52,16 @@ def options_for(name: str, options: dict) -> dict:
     return {k: v for k, v in options.items() if v is not None and k in OPTIONS[name]}
 
 
-def make(name: str, options: dict, limits: Limits, fps: float, budget: int | None = None) -> Filter:
-    """Build filter ``name``. Explicit options win over the ``budget`` (evaluations per frame)."""
+def evaluations(name: str, settings: NamedTuple) -> int:
+    """Likelihood evaluations per frame of filter ``name`` with ``settings``."""
+    return {"ipf": lambda s: s.top_m * s.grid_size(), "apf": lambda s: s.particles * s.layers,
+            "sir": lambda s: s.particles}[name](settings)
+
+
+def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> NamedTuple:
+    """The validated settings of filter ``name``: ``options`` (explicit, win) and the ``budget``
+    (evaluations per frame) mapped as the module doc says. Raises IPFError for any impossible
+    combination, without building anything."""
     check_name(name)
     if budget is not None:
         require(isinstance(budget, numbers.Integral) and not isinstance(budget, bool) and budget >= 1,
@@ -53,21 +70,29 @@ def make(name: str, options: dict, limits: Limits, fps: float, budget: int | Non
     options = {k: v for k, v in options.items() if v is not None}
     extra = sorted(set(options) - set(OPTIONS[name]))
     require(not extra, f"option(s) {', '.join(extra)} do not apply to the {name} filter")
-    f = {"ipf": _make_ipf, "apf": _make_apf, "sir": _make_sir}[name](options, limits, fps, budget)
-    if budget is not None and f.evaluations_per_frame > budget:
+    settings = {"ipf": _ipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
+    _MODULES[name].validate(settings)
+    need = evaluations(name, settings)
+    if budget is not None and need > budget:
         raise IPFError(f"{name} with {', '.join(f'{k}={v}' for k, v in options.items())} needs "
-                       f"{f.evaluations_per_frame} evaluations per frame, over the budget of {budget}")
-    return f
+                       f"{need} evaluations per frame, over the budget of {budget}")
+    return settings
 
 
-def _make_sir(options: dict, limits: Limits, fps: float, budget: int | None) -> Filter:
+def make(name: str, options: dict, limits: Limits, fps: float, budget: int | None = None) -> Filter:
+    """Build filter ``name``. Explicit options win over the ``budget`` (evaluations per frame)."""
+    settings = resolve(name, options, fps, budget)
+    return _MODULES[name].build(settings, limits, fps)
+
+
+def _sir_settings(options: dict, budget: int | None) -> sir.SIRSettings:
     settings = sir.SIRSettings(**options)
     if "particles" not in options and budget is not None:
         settings = settings._replace(particles=budget)
-    return sir.build(settings, limits, fps)
+    return settings
 
 
-def _make_apf(options: dict, limits: Limits, fps: float, budget: int | None) -> Filter:
+def _apf_settings(options: dict, budget: int | None) -> apf.APFSettings:
     settings = apf.APFSettings(**options)
     if budget is not None and "particles" not in options:
         require(budget >= settings.layers,
@@ -77,10 +102,10 @@ def _make_apf(options: dict, limits: Limits, fps: float, budget: int | None) -> 
         require(budget >= settings.particles,
                 f"a budget of {budget} evaluations cannot weigh {settings.particles} particles once")
         settings = settings._replace(layers=budget // settings.particles)
-    return apf.build(settings, limits, fps)
+    return settings
 
 
-def _make_ipf(options: dict, limits: Limits, fps: float, budget: int | None) -> Filter:
+def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
     options = dict(options)
     particles = options.pop("particles", None)
     if particles is not None and "top_m" in options:
@@ -92,4 +117,4 @@ def _make_ipf(options: dict, limits: Limits, fps: float, budget: int | None) -> 
         require(total >= grid, f"{total} particles cannot hold one grid of I = {grid} neighbours "
                 f"({settings.points_per_dof} points per DOF over {len(settings.interesting)} DOF)")
         settings = settings._replace(top_m=total // grid)
-    return ipf.build(settings, limits, fps)
+    return settings

@@ -34,8 +34,6 @@ from typing import NamedTuple
 
 from ..errors import IPFError, require
 from ..filters.registry import NAMES as FILTERS
-from ..geometry.world import AXES
-from ..likelihood.scorer import KERNELS
 from .spec import (
     OPTION_TYPES,
     TRACK_TYPES,
@@ -86,17 +84,6 @@ def _values(key: str, value, *, base: Path, where: str, path: Path) -> list:
     if key == "frames":
         return [check_frames(v, where=where, path=path) for v in items]
     return [coerce(key, v, base=base, where=where, path=path) for v in items]
-
-
-def check_track(track: dict, where: str, path: Path) -> None:
-    """Range checks the tracker would otherwise make only when a cell starts."""
-    checks = (("resolution", lambda v: 16 <= v <= 2048, "16..2048 px"), ("chunk", lambda v: v >= 1, ">= 1"),
-              ("kernel", lambda v: v in KERNELS, " or ".join(KERNELS)), ("up_axis", lambda v: v in AXES,
-              " ".join(AXES)), ("fps", lambda v: v > 0, "> 0"), ("height_m", lambda v: v > 0, "> 0"),
-              ("confidence_patience", lambda v: v >= 1, ">= 1"))
-    for key, ok, want in checks:
-        if key in track:
-            require(ok(track[key]), f"{where}: {key} must be {want} (got {track[key]!r})", path)
 
 
 def _dataset(entry, k: int, base: Path, path: Path) -> dict:
@@ -170,7 +157,6 @@ def load_config(path: str | Path) -> SweepConfig:
                         "eval": {"joints": joints, "align": align}}
                 desc = f"{where} ({block['name']}) with " + (", ".join(f"{k}={v}" for k, v in values.items())
                                                              or "defaults")
-                check_track(spec["track"], desc, path)
                 key = repr((spec["filter"], spec["options"], spec["track"]))
                 if key not in checked:
                     check_filter(spec, where=desc, path=path)

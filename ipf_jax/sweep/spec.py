@@ -19,21 +19,25 @@ import re
 from pathlib import Path
 from typing import NamedTuple
 
-from ..body.limits import PRESETS
 from ..data.frames import parse_frames
 from ..errors import IPFError, require
+from ..paths import expand_path
+from ..tracking.options import (
+    BY_KEY,
+    FILTER_KEYS,
+    TRACK_KEYS,
+    check_value,
+    check_values,
+    resolve_path,
+    settings_from,
+)
 
 SCHEMA = 1  # bump when the meaning of a spec changes, so old cells are not reused
 
-#: Filter options (``TrackSettings.filter_options``) -> type.
-OPTION_TYPES = {"top_m": int, "points_per_dof": int, "particles": int, "layers": int,
-                "interval_width_deg": float, "max_speed_deg_s": float, "noise_scale": float,
-                "survival": float, "interesting": "dofs"}
-#: Other :class:`ipf_jax.tracking.tracker.TrackSettings` fields a spec may set -> type.
-TRACK_TYPES = {"budget": int, "resolution": int, "seed": int, "chunk": int, "kernel": str,
-               "limits": "limits", "height_m": float, "up_axis": str, "fps": float,
-               "shape_file": "path", "confidence_drop": float, "confidence_patience": int,
-               "origin_shift": bool, "floor_range": "range"}
+#: Filter options (``TrackSettings.filter_options``) and the other ``TrackSettings`` fields a spec
+#: may set -> their kind; both from the one table of tracking options.
+OPTION_TYPES = {k: BY_KEY[k].kind for k in FILTER_KEYS}
+TRACK_TYPES = {k: BY_KEY[k].kind for k in TRACK_KEYS if k != "filter"}
 
 
 class Cell(NamedTuple):
@@ -43,40 +47,38 @@ class Cell(NamedTuple):
 
 
 def coerce(key: str, value, *, base: Path, where: str, path=None):
-    """``value`` checked against the type of ``key`` (ints stay ints, floats become floats)."""
-    kind = OPTION_TYPES.get(key, TRACK_TYPES.get(key))
+    """``value`` checked against the kind of option ``key`` (ints stay ints, floats become floats)
+    and its rule (:func:`ipf_jax.tracking.options.check_value`)."""
+    kind = BY_KEY[key].kind
     bad = f"{where}: {key} must be "
-    if kind is int:
+    if kind == "int":
         require(isinstance(value, int) and not isinstance(value, bool), bad + f"an integer (got {value!r})", path)
-        return value
-    if kind is float:
+    elif kind == "float":
         require(isinstance(value, (int, float)) and not isinstance(value, bool),
                 bad + f"a number (got {value!r})", path)
-        return float(value)
-    if kind is bool:
+        value = float(value)
+    elif kind == "bool":
         require(isinstance(value, bool), bad + f"true or false (got {value!r})", path)
-        return value
-    if kind == "range":
+    elif kind == "range":
         require(isinstance(value, (list, tuple)) and len(value) == 2
                 and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
                 and value[0] <= value[1], bad + f"[low, high] in metres, low <= high (got {value!r})", path)
-        return [float(v) for v in value]
-    if kind == "dofs":
+        value = [float(v) for v in value]
+    elif kind == "dofs":
         require(isinstance(value, list) and value and all(isinstance(v, str) for v in value),
                 bad + f"a list of DOF names (got {value!r})", path)
-        return list(value)
-    require(isinstance(value, str) and value != "", bad + f"a string (got {value!r})", path)
-    if kind == "path" or (kind == "limits" and value not in PRESETS):
-        return str(resolve(value, base))
+        value = list(value)
+    else:
+        require(isinstance(value, str) and value != "", bad + f"a string (got {value!r})", path)
+        if kind in ("path", "limits"):
+            value = resolve_path(value, base)
+    check_value(key, value, f"{where}: {key}", path)
     return value
 
 
 def resolve(value: str, base: Path) -> Path:
-    """A path from a config or manifest: ``~`` and ``$VARS`` expanded, relative to ``base``."""
-    import os
-
-    p = Path(os.path.expandvars(os.path.expanduser(value)))
-    return (p if p.is_absolute() else base / p).resolve()
+    """A path from a config or manifest, relative to ``base`` (:func:`ipf_jax.paths.expand_path`)."""
+    return expand_path(value, base)
 
 
 def check_frames(value, *, where: str, path=None) -> str:
@@ -100,31 +102,20 @@ def make_cell(spec: dict, varying: dict | None = None) -> Cell:
 
 
 def track_settings(spec: dict):
-    """The :class:`ipf_jax.tracking.tracker.TrackSettings` of a spec (initial pose read from its file)."""
+    """The :class:`ipf_jax.tracking.settings.TrackSettings` of a spec (initial pose read from its
+    file)."""
     from ..data.runfiles import read_pose_rows
-    from ..tracking.tracker import TrackSettings
 
-    track = dict(spec["track"])
-    options = dict(spec["options"])
-    if "interesting" in options:
-        options["interesting"] = tuple(options["interesting"])
-    if track.get("floor_range") is not None:
-        track["floor_range"] = tuple(track["floor_range"])
     init_pose = read_pose_rows(spec["init_pose"])[0] if spec.get("init_pose") else None
-    return TrackSettings(filter=spec["filter"], filter_options=options, init_pose=init_pose, **track)
+    return settings_from({**spec["options"], **spec["track"], "filter": spec["filter"]},
+                         init_pose=init_pose)
 
 
 def check_filter(spec: dict, *, where: str, path=None) -> None:
-    """Build the spec's filter once (cheap) so impossible options fail before any tracking."""
-    from ..body.limits import load_limits
-    from ..filters import registry
-    from ..tracking.tracker import DEFAULT_FPS
-
-    options = dict(spec["options"])
-    if "interesting" in options:
-        options["interesting"] = tuple(options["interesting"])
+    """The spec's filter with its options and budget, checked (nothing is built) so impossible
+    options fail before any tracking."""
+    values = {**spec["options"], **spec["track"], "filter": spec["filter"]}
     try:
-        registry.make(spec["filter"], options, load_limits(spec["track"].get("limits", "default")),
-                      spec["track"].get("fps") or DEFAULT_FPS, budget=spec["track"].get("budget"))
+        check_values(values, name=lambda k: k)
     except IPFError as e:
-        raise IPFError(f"{where}: {e}", path) from None
+        raise IPFError(f"{where}: {e.message}", path) from None

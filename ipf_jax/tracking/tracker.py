@@ -1,11 +1,18 @@
-"""The tracking loop (host side): frames -> masks -> filter step -> estimate -> files.
+"""The tracker: one frame at a time, observe -> place -> (initialise | select, predict, measure) ->
+estimate -> check, then write the rows.
 
-Per frame: read every camera's mask, resize it once to the scoring resolution, skip cameras with
-an empty mask (recorded), write a missing row when no camera shows a person-sized blob (empty
-masks, or specks only); otherwise run one filter step (or the automatic initialisation on the
-first frame), watch the confidence (best weight over its recent median) and re-initialise when it
-collapses. Rows are appended and fsynced per frame; a checkpoint every K frames makes
-``resume=True`` continue exactly where a run stopped.
+:meth:`Tracker.track_frame` is one frame, ``(state, frame) -> (state, FrameRecord)``, and reads as
+the paper's stages; :class:`~ipf_jax.tracking.state.TrackState` is everything carried from frame to
+frame and is the checkpoint. :meth:`Tracker.run` only reads frames, writes rows (appended and
+fsynced per frame), checkpoints every K frames and shows progress, so ``resume=True`` continues
+exactly where a run stopped.
+
+Per frame: every camera's mask is resized once to the scoring resolution; a camera with an empty
+mask is skipped (recorded); a frame where no camera shows a person-sized blob is written as
+missing. Otherwise the body origin moves with the silhouettes (:mod:`.origin`), the filter steps
+(or, on the first frame, the automatic initialisation runs: :mod:`.initialise`), the heaviest
+particle is the estimate, and a confidence (best weight over its recent median) that collapses for
+a few frames triggers a re-initialisation, kept only if it explains the silhouettes better.
 
 Before the first initialisation every camera with a silhouette must see the point on the floor
 where the cameras' viewing rays meet: one that cannot (the point is behind it or far outside its
@@ -26,7 +33,8 @@ from tqdm import tqdm
 
 from .. import __version__
 from ..body.limits import Limits, limits_to_json, load_limits
-from ..body.shape import BodyShape, default_shape, load_shape, shape_from_json
+from ..body.model import NUM_DOF, NUM_POINTS
+from ..body.shape import BodyShape, default_shape, load_shape
 from ..data import checkpoint
 from ..data.dataset import Dataset
 from ..data.runfiles import (
@@ -34,12 +42,14 @@ from ..data.runfiles import (
     POSE_COLUMNS,
     CsvAppender,
     check_writable,
+    read_joints_csv,
+    read_table,
     write_json_atomic,
 )
 from ..data.silhouette import resize_mask
 from ..errors import IPFError, require
 from ..filters import registry
-from ..filters.base import FilterState
+from ..filters.base import Filter, FilterState, best_index
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
 from ..geometry.rays import silhouette_rays
@@ -51,36 +61,28 @@ from ..likelihood.scorer import (
     scoring_cameras,
     weights_from_counts,
 )
+from . import state as track_state
 from .contact import FloorContact
-from .initialise import InitSettings, floor_points, initialise
+from .initialise import floor_points, initialise
+from .options import settings_doc
 from .origin import FrameAnchor, observe_anchor, root_shift
+from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings
+from .state import HISTORY, FrameRecord, TrackState
 
-DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
-DEFAULT_FPS = 20.0  # the paper's rate
+__all__ = ["DEFAULT_FPS", "DEFAULT_RESOLUTION", "FrameView", "RunResult", "TrackSettings", "Tracker",
+           "track"]
+
 VIEW_MARGIN = 0.5  # of the image size: how far outside its image a camera may place the person
 # (feet or head cut off by the border are common; a whole body half an image away is not)
 
 
-class TrackSettings(NamedTuple):
-    filter: str = "ipf"
-    filter_options: dict = {}
-    budget: int | None = None
-    resolution: int = DEFAULT_RESOLUTION
-    fps: float | None = None
-    height_m: float | None = None
-    shape_file: str | None = None
-    limits: str = "default"
-    up_axis: str | None = None
-    seed: int = 0
-    chunk: int = 512
-    kernel: str = "scanline"
-    checkpoint_every: int = 10
-    confidence_drop: float = 0.5  # re-initialise below this fraction of the recent median weight...
-    confidence_patience: int = 2  # ...for this many consecutive frames
-    init: InitSettings = InitSettings()
-    init_pose: np.ndarray | None = None
-    origin_shift: bool = True  # body origin positioning from the silhouettes (see ipf_jax.tracking.origin)
-    floor_range: tuple[float, float] | None = None  # floor contact (ipf_jax.tracking.contact); None = off
+class Seen(NamedTuple):
+    """One frame as the cameras saw it: ``obs`` for the scorer, ``masks`` (C of (H, W) bool) at
+    scoring resolution, whether anyone is there (a person-sized blob in some camera)."""
+
+    obs: Observation
+    masks: list
+    person: bool
 
 
 class FrameView(NamedTuple):
@@ -130,8 +132,10 @@ def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
                        "cameras in another order, or wrong --up)", cam.source or where)
 
 
-def _settings_key(settings: TrackSettings, dataset: Dataset, frames: list[int]) -> str:
+def settings_key(settings: TrackSettings, dataset: Dataset, frames: list[int]) -> str:
+    """A digest of what a run's files depend on: a checkpoint resumes only under the same key."""
     doc = {k: (v if not isinstance(v, np.ndarray) else v.tolist()) for k, v in settings._asdict().items()}
+    doc["filter_options"] = dict(settings.filter_options)
     doc["init"] = settings.init._asdict()
     doc["dataset"] = str(dataset.path.resolve()) if dataset.layout != "memory" else dataset.name
     doc["frames"] = [frames[0], frames[-1], len(frames)] if frames else []
@@ -139,7 +143,8 @@ def _settings_key(settings: TrackSettings, dataset: Dataset, frames: list[int]) 
 
 
 class Tracker:
-    """One tracking run over a dataset (see :func:`track`)."""
+    """One tracking run over a dataset (see :func:`track`): the static context of every frame
+    (cameras at scoring resolution, up axis, limits, template body, scorer, seed)."""
 
     def __init__(self, dataset: Dataset, settings: TrackSettings, frames: list[int] | None = None):
         self.dataset = dataset
@@ -161,21 +166,28 @@ class Tracker:
                                       else load_shape(settings.shape_file))
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
-        self.filter = self.make_filter(None)
+        self._filters: dict[int, Filter] = {}
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
                              chunk=settings.chunk)
         self.key = jax.random.PRNGKey(settings.seed)
 
-    def make_filter(self, shape: BodyShape | None):
+    @property
+    def filter(self) -> Filter:
+        """The filter before the subject is known (its name, parameters, budget)."""
+        return self.filter_for(None)
+
+    def filter_for(self, shape: BodyShape | None) -> Filter:
         """The filter; once the subject's shape is known its limits include floor contact."""
-        s = self.settings
-        limits = self.limits
-        if shape is not None and s.floor_range is not None:
-            limits = FloorContact(self.limits, shape, self.U, *s.floor_range)
-        f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget)
+        k = 0 if shape is None or self.settings.floor_range is None else id(shape)
+        if k not in self._filters:
+            s = self.settings
+            limits = self.limits if k == 0 else FloorContact(self.limits, shape, self.U, *s.floor_range)
+            f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget)
+            self._filters = {0: self._filters.get(0, f), k: f}
+        f = self._filters[k]
         return f if self.filter_hook is None else self.filter_hook(f)
 
-    # -- per frame helpers -------------------------------------------------------------------
+    # -- the stages of a frame ---------------------------------------------------------------
     def read_masks(self, frame: int) -> list[np.ndarray]:
         masks = self.dataset.masks(frame)
         for k, m in enumerate(masks, start=1):
@@ -186,11 +198,16 @@ class Tracker:
                                f"{frame}", self.dataset.path)
         return masks
 
-    def observe(self, frame: int) -> tuple[Observation, list[np.ndarray]]:
+    def observe(self, frame: int) -> Seen:
+        """The frame's masks at scoring resolution; specks alone (no blob of a person's size in
+        any camera) are nobody."""
         masks = self.read_masks(frame)
         small = [m if s == 1.0 else resize_mask(m, c.height, c.width)
                  for m, s, c in zip(masks, self.scales, self.cameras)]
-        return make_observation(small), small
+        obs = make_observation(small)
+        person = bool(silhouette_rays([m for m, a in zip(small, obs.active) if a],
+                                      [c for c, a in zip(self.cameras, obs.active) if a]))
+        return Seen(obs, small, person)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None):
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
@@ -227,119 +244,114 @@ class Tracker:
                          self.measure(obs), height_m=s.height_m, fixed_shape=shape, settings=s.init)
         return res.particles, res.weights, res.shape, res.evaluations
 
-    # -- the loop ----------------------------------------------------------------------------
+    def place(self, state: TrackState, seen: Seen) -> tuple[FrameAnchor, np.ndarray]:
+        """Body origin positioning: the frame's silhouette anchor, and the (3,) root shift since
+        the last frame (zero when positioning is off or cannot be measured)."""
+        here = observe_anchor(list(seen.masks), self.cameras, self.U[:, 2],
+                              (state.shape or self.base_shape).height_m)
+        shift = (root_shift(state.anchor, here, self.U[:, 2], state.anchor_height)
+                 if self.settings.origin_shift else np.zeros(3))
+        return here, shift
+
+    def start(self, state: TrackState, frame: int, seen: Seen) -> TrackState:
+        """The automatic initialisation (or the given initial pose) on the first frame seen."""
+        self.check_view(seen.obs, seen.masks)
+        q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None)
+        return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
+                              init_evaluations=state.init_evaluations + n)
+
+    def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray) -> tuple[TrackState, int]:
+        """Select, predict, measure: one step of the filter, every particle's root moved first
+        by the body origin's shift. Returns the state and the evaluations spent."""
+        moved = FilterState(state.filter.particles + np.r_[shift, np.zeros(NUM_DOF - 3)],
+                            state.filter.weights)
+        filt, info = self.filter_for(state.shape).step(self.frame_key(frame), moved,
+                                                       self.measure(seen.obs, state.shape))
+        return state._replace(filter=filt), info.evaluations
+
+    def check(self, state: TrackState, frame: int, seen: Seen, status: str, info: dict) -> tuple[TrackState, str, float]:
+        """The confidence (best weight over the median of the last frames'); after a collapse that
+        lasts, a re-initialisation around the subject, kept only if it weighs more."""
+        s = self.settings
+        w_best = float(state.filter.weights[best_index(state.filter.weights)])
+        ref = float(np.median(state.history)) if state.history else w_best
+        conf = w_best / ref if ref > 0 else 0.0
+        low = state.low_streak + 1 if conf < s.confidence_drop else 0
+        state = state._replace(low_streak=low)
+        if status == "tracked" and low >= s.confidence_patience:
+            try:
+                q, w, _, n = self.initialise(frame, seen.obs, seen.masks, state.shape)
+            except IPFError as e:  # a recovery attempt that cannot run keeps the track
+                w, n = None, 0
+                info["reinit_error"] = e.message
+            status = "reinit-rejected"
+            if w is not None and np.nanmax(w) > w_best:
+                state = state._replace(filter=self.filter_for(state.shape).init(q, w))
+                status = "reinit"
+            state = state._replace(init_evaluations=state.init_evaluations + n, history=(),
+                                   low_streak=0, reinits=(*state.reinits, int(frame)))
+            conf = 1.0
+        return state, status, conf
+
+    def track_frame(self, state: TrackState, frame: int, seen: Seen) -> tuple[TrackState, FrameRecord]:
+        """One frame: place, initialise or step (select, predict, measure), estimate, check."""
+        time_s = frame / self.fps
+        info = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": [
+            self.dataset.cameras[i].name for i in range(len(seen.masks)) if not seen.obs.active[i]]}
+        if not seen.person:
+            info.update(status="missing", weight=None, confidence=None, evaluations=0)
+            return state, FrameRecord(frame, time_s, np.full(NUM_DOF, np.nan),
+                                      np.full((NUM_POINTS, 3), np.nan), info)
+        anchor, shift = self.place(state, seen)
+        state = state._replace(anchor=anchor)
+        if state.filter is None:
+            state, status, evals = self.start(state, frame, seen), "init", 0
+        else:
+            (state, evals), status = self.step(state, frame, seen, shift), "tracked"
+        state, status, conf = self.check(state, frame, seen, status, info)
+        best = best_index(state.filter.weights)  # the estimate: the heaviest particle
+        w_best = float(state.filter.weights[best])
+        state = state._replace(history=(*state.history, w_best)[-HISTORY:])
+        pose = state.filter.particles[best]
+        points = forward_kinematics(pose, state.shape.values, self.U).points
+        if status == "init":  # one plane for the whole run (single camera, see origin)
+            state = state._replace(anchor_height=float(self.U[:, 2] @ points[0]))
+        info.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
+                    evaluations=int(evals), origin_shift_m=round(float(np.linalg.norm(shift)), 4))
+        return state, FrameRecord(frame, time_s, pose, points, info)
+
+    # -- the run -----------------------------------------------------------------------------
     def run(self, out_dir: Path, *, resume: bool = False, progress: bool = True,
             frame_hook: Callable[[FrameView], None] | None = None) -> RunResult:
         out_dir = check_writable(Path(out_dir))
-        key = _settings_key(self.settings, self.dataset, self.frames)
-        if resume:
-            ck = checkpoint.load(out_dir)
-            if ck.settings_key != key:
-                raise IPFError("cannot resume: the run in this folder used other settings or data",
-                               out_dir)
-            for stale in [*out_dir.glob(f"{checkpoint.NAME}*.tmp"), *out_dir.glob("run.json*.tmp")]:
-                stale.unlink(missing_ok=True)  # left by a kill during an atomic write
-        else:
-            ck = checkpoint.Checkpoint(0, 0, None, None, None, [], 0, [], [], 0, key, None, 0.9)
-        joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, ck.rows if resume else None,
-                                 lazy=True)
-        poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, ck.rows if resume else None,
-                                lazy=True)
-        state = None if ck.particles is None else FilterState(ck.particles, ck.weights)
-        shape = None if ck.shape is None else shape_from_json(ck.shape)
-        self.filter = self.make_filter(shape)
-        history, low_streak = list(ck.history), ck.low_streak
-        per_frame, reinits = list(ck.per_frame), list(ck.reinits)
-        init_evals = ck.init_evaluations
-        prev_anchor = FrameAnchor.from_json(ck.anchor)
-        anchor_height = ck.anchor_height
-        rows = ck.rows
+        key = settings_key(self.settings, self.dataset, self.frames)
+        state = self._start_state(out_dir, key, resume)
+        keep = state.rows if resume else None
+        joints_csv = CsvAppender(out_dir / "joints.csv", JOINT_COLUMNS, keep, lazy=True)
+        poses_csv = CsvAppender(out_dir / "poses.csv", POSE_COLUMNS, keep, lazy=True)
         t_start = time.perf_counter()
-        bar = tqdm(self.frames[ck.next_index:], desc=f"track {self.dataset.name}", unit="frame",
-                   disable=not progress, initial=0, leave=True)
+        bar = tqdm(self.frames[state.next_index:], desc=f"track {self.dataset.name}", unit="frame",
+                   disable=not progress, leave=True)
         frame = None
         try:
-            for idx, frame in enumerate(bar, start=ck.next_index):
+            for frame in bar:
                 t0 = time.perf_counter()
-                obs, small = self.observe(frame)
-                time_s = frame / self.fps
-                skipped = [self.dataset.cameras[i].name for i in range(len(small)) if not obs.active[i]]
-                rec = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": skipped}
-                # specks alone (no blob of a person's size in any camera) cannot place anyone
-                if not silhouette_rays([m for m, a in zip(small, obs.active) if a],
-                                       [c for c, a in zip(self.cameras, obs.active) if a]):
-                    nan = np.full(len(JOINT_COLUMNS) - 2, np.nan)
-                    joints_csv.write(frame, time_s, nan)
-                    poses_csv.write(frame, time_s, np.full(len(POSE_COLUMNS) - 2, np.nan))
-                    rec.update(status="missing", weight=None, confidence=None, evaluations=0)
-                else:
-                    status = "tracked"
-                    here = observe_anchor(list(small), self.cameras, self.U[:, 2],
-                                          (shape or self.base_shape).height_m)
-                    shift = (root_shift(prev_anchor, here, self.U[:, 2], anchor_height)
-                             if self.settings.origin_shift else np.zeros(3))
-                    prev_anchor = here
-                    if state is None:
-                        self.check_view(obs, small)
-                        q, w, shape, n = self.initialise(frame, obs, small, None)
-                        self.filter = self.make_filter(shape)
-                        init_evals += n
-                        state = self.filter.init(q, w)
-                        status, evals = "init", 0
-                    else:
-                        state = FilterState(state.particles + np.r_[shift, np.zeros(state.particles.shape[1] - 3)],
-                                            state.weights)
-                        state, info = self.filter.step(self.frame_key(frame), state,
-                                                       self.measure(obs, shape))
-                        evals = info.evaluations
-                    best = int(np.nanargmax(state.weights))
-                    w_best = float(state.weights[best])
-                    ref = float(np.median(history)) if history else w_best
-                    conf = w_best / ref if ref > 0 else 0.0
-                    low_streak = low_streak + 1 if conf < self.settings.confidence_drop else 0
-                    if status == "tracked" and low_streak >= self.settings.confidence_patience:
-                        try:
-                            q, w, _, n = self.initialise(frame, obs, small, shape)
-                        except IPFError as e:  # a recovery attempt that cannot run keeps the track
-                            w, n = None, 0
-                            rec["reinit_error"] = e.message
-                        init_evals += n
-                        reinits.append(int(frame))
-                        if w is not None and np.nanmax(w) > w_best:
-                            state = self.filter.init(q, w)
-                            best = int(np.nanargmax(state.weights))
-                            w_best = float(state.weights[best])
-                            status = "reinit"
-                        else:
-                            status = "reinit-rejected"
-                        history, low_streak = [], 0
-                        conf = 1.0
-                    history = (history + [w_best])[-10:]
-                    q_best = state.particles[best]
-                    pts = forward_kinematics(q_best, shape.values, self.U).points
-                    if status == "init":  # one plane for the whole run (single camera, see origin)
-                        anchor_height = float(self.U[:, 2] @ pts[0])
-                    joints_csv.write(frame, time_s, pts.ravel())
-                    poses_csv.write(frame, time_s, q_best)
-                    rec.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
-                               evaluations=int(evals), origin_shift_m=round(float(np.linalg.norm(shift)), 4))
-                rows += 1
-                rec["seconds"] = round(time.perf_counter() - t0, 4)
-                per_frame.append(rec)
-                bar.set_postfix(w=rec.get("weight"), conf=rec.get("confidence"))
-                done = idx + 1
-                if done % self.settings.checkpoint_every == 0 or done == len(self.frames):
-                    checkpoint.save(out_dir, checkpoint.Checkpoint(
-                        done, rows, None if state is None else state.particles,
-                        None if state is None else state.weights,
-                        None if shape is None else shape.to_json(), history, low_streak,
-                        per_frame, reinits, init_evals, key,
-                        None if prev_anchor is None else prev_anchor.to_json(), anchor_height))
-                    write_json_atomic(out_dir / "run.json", self.run_doc(per_frame, reinits, init_evals,
-                                                                        shape, time.perf_counter() - t_start))
-                if frame_hook is not None and rec["status"] != "missing":
-                    frame_hook(FrameView(frame, small, self.cameras, state.particles[best], shape,
-                                         self.U, rec["weight"]))
+                seen = self.observe(frame)
+                state, rec = self.track_frame(state, frame, seen)
+                joints_csv.write(frame, rec.time_s, rec.points.ravel())
+                poses_csv.write(frame, rec.time_s, rec.pose)
+                rec.info["seconds"] = round(time.perf_counter() - t0, 4)
+                state = state._replace(next_index=state.next_index + 1, rows=state.rows + 1,
+                                       records=(*state.records, rec.info))
+                bar.set_postfix(w=rec.info.get("weight"), conf=rec.info.get("confidence"))
+                if state.next_index % self.settings.checkpoint_every == 0 \
+                        or state.next_index == len(self.frames):
+                    track_state.save(out_dir, state, key)
+                    write_json_atomic(out_dir / "run.json",
+                                      self.run_doc(state, time.perf_counter() - t_start))
+                if frame_hook is not None and rec.info["status"] != "missing":
+                    frame_hook(FrameView(frame, seen.masks, self.cameras, rec.pose, state.shape,
+                                         self.U, rec.info["weight"]))
         except IPFError as e:  # say where the run stopped and that its rows are safe
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
                     if (out_dir / checkpoint.NAME).exists() else "")
@@ -348,38 +360,42 @@ class Tracker:
             bar.close()
             joints_csv.close()
             poses_csv.close()
-        doc = self.run_doc(per_frame, reinits, init_evals, shape, time.perf_counter() - t_start)
+        doc = self.run_doc(state, time.perf_counter() - t_start)
         write_json_atomic(out_dir / "run.json", doc)
-        from ..data.runfiles import read_joints_csv
+        poses = read_table(out_dir / "poses.csv", "poses file")[1][:, 2:]
+        return RunResult(out_dir, self.frames, poses, read_joints_csv(out_dir / "joints.csv").points, doc)
 
-        table = read_joints_csv(out_dir / "joints.csv")
-        poses = np.genfromtxt(out_dir / "poses.csv", delimiter=",", skip_header=1, ndmin=2)[:, 2:]
-        return RunResult(out_dir, self.frames, poses, table.points, doc)
+    def _start_state(self, out_dir: Path, key: str, resume: bool) -> TrackState:
+        if not resume:
+            return TrackState()
+        state, saved_key = track_state.load(out_dir)
+        if saved_key != key:
+            raise IPFError("cannot resume: the run in this folder used other settings or data", out_dir)
+        checkpoint.remove_stale(out_dir)
+        return state
 
-    def run_doc(self, per_frame, reinits, init_evals, shape, seconds) -> dict:
-        s = self.settings
+    def run_doc(self, state: TrackState, seconds: float) -> dict:
+        """``run.json`` (see docs/formats.md)."""
+        per_frame = list(state.records)
         tracked = [r for r in per_frame if r["status"] != "missing"]
-        shape = shape or self.base_shape
+        shape = state.shape or self.base_shape
+        f = self.filter
         return {
             "ipf_jax_version": __version__, "jax_version": jax.__version__,
             "device_kind": jax.devices()[0].device_kind,
             "dataset": str(self.dataset.path), "layout": self.dataset.layout,
             "cameras": [c.name for c in self.dataset.cameras],
-            "filter": self.filter.name, "filter_params": self.filter.params,
-            "settings": {"resolution": s.resolution, "scoring_sizes": [[c.width, c.height] for c in self.cameras],
-                         "limits": s.limits, "seed": s.seed, "kernel": s.kernel, "chunk": s.chunk,
-                         "budget": s.budget, "height_m_given": s.height_m,
-                         "confidence_drop": s.confidence_drop,
-                         "confidence_patience": s.confidence_patience, "init": s.init._asdict(),
-                         "floor_range_m": s.floor_range, "origin_shift": s.origin_shift},
+            "filter": f.name, "filter_params": f.params,
+            "settings": {**settings_doc(self.settings),
+                         "scoring_sizes": [[c.width, c.height] for c in self.cameras]},
             "limits": limits_to_json(self.limits),
             "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
             "height_m": shape.height_m, "shape": shape.to_json(),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
                        "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
-            "evaluations_per_frame": self.filter.evaluations_per_frame,
-            "init_evaluations": init_evals,
-            "reinitialisations": reinits,
+            "evaluations_per_frame": f.evaluations_per_frame,
+            "init_evaluations": state.init_evaluations,
+            "reinitialisations": list(state.reinits),
             "seconds": {"total": round(seconds, 3),
                         "per_tracked_frame_mean": round(float(np.mean(
                             [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},

@@ -90,7 +90,7 @@ def read_joints_csv(path: str | Path, *, up: str | None = None,
     if up_axis is None:
         raise IPFError("no run.json with 'up_axis' beside the file: give the up axis with --up",
                        path)
-    notes = [f"up axis {up_axis} from " + ("--up" if up else "run.json")]
+    notes = [f"up axis {up_axis} from " + ("the up option" if up else "run.json")]
     return make_trajectories(table[:, col["time_s"]], points, up_axis=up_axis, source=path,
                              fps=meta.get("fps"), notes=tuple(notes))
 

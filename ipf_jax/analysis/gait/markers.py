@@ -56,7 +56,7 @@ def read_marker_file(path: str | Path, *, marker_map: str | Path | None = None,
     points, notes = apply_marker_map(raw.markers, roles, data_path=path, map_path=map_path)
     scale = UNIT_SCALE[unit]
     points = {k: v * scale for k, v in points.items()}
-    source_of_up = "--up" if up else ("the file" if raw.up_axis else "lab default (Y up)")
+    source_of_up = "the up option" if up else ("the file" if raw.up_axis else "lab default (Y up)")
     notes = (f"marker map {map_path.name}", f"units {unit}", f"up axis {up_axis} from "
              f"{source_of_up}", *notes)
     return make_trajectories(raw.time, points, up_axis=up_axis, source=path, fps=raw.rate,

@@ -1,0 +1,255 @@
+"""The tracking options, each declared once: its flag, type, default, help, where it goes in the
+settings, and how it is checked.
+
+Everything that takes tracking options is built from :data:`OPTIONS`: the CLI parser of ``track``,
+``compare`` and ``batch`` (:func:`ipf_jax.cli.options.add_tracking_options`), the keys of sweep
+configurations and their checks (:mod:`ipf_jax.sweep`), ``run.json``'s ``settings``
+(:func:`settings_doc`) and ``compare``. An option goes to one of three places (``target``):
+
+* ``filter``: ``TrackSettings.filter_options[key]``, read by the filter that takes it (the filters
+  declare their own defaults and rules, :data:`FILTER_OPTIONS`; the table adds flag and help);
+* ``track``: the ``TrackSettings`` field ``key``;
+* ``run``: not a setting of the tracker but of one run (``frames``, ``init_pose``).
+
+Values are kept keyed by option ``key`` (the sweep key, the ``run.json`` key); the CLI flag is
+``flag``. :func:`check_values` checks a set of values (each option's own rule, then the filter with
+its budget), naming the flags or keys at fault; :func:`settings_from` turns them into a
+:class:`TrackSettings`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, NamedTuple
+
+from ..body.limits import PRESETS, load_limits
+from ..errors import IPFError, require
+from ..filters import registry
+from ..geometry.world import AXES
+from ..likelihood.scorer import KERNELS
+from ..paths import expand_path
+from .settings import (
+    DEFAULT_FPS,
+    DEFAULT_RESOLUTION,
+    INIT_BUDGETS,
+    TrackSettings,
+    init_settings,
+)
+
+#: filter name -> the option keys it takes (its settings fields; ``particles`` for every one)
+FILTER_OPTIONS = registry.OPTIONS
+
+
+class Option(NamedTuple):
+    """One tracking option (see module doc).
+
+    kind : int, float, bool, str, choice, dofs, path, limits, axis, range, frames.
+    default : the value when not given; None = the filter's or the tracker's own default.
+    check : value -> None, raising IPFError (message only; the caller says where).
+    """
+
+    key: str
+    flag: str
+    kind: str
+    default: Any
+    help: str
+    target: str = "track"
+    choices: tuple = ()
+    check: Callable[[Any], None] | None = None
+    metavar: str | None = None
+
+
+def _at_least(lo, what=""):
+    def check(v):
+        require(v >= lo, f"must be >= {lo}{what}")
+    return check
+
+
+def _within(lo, hi, unit=""):
+    def check(v):
+        require(lo <= v <= hi, f"must be {lo:g}..{hi:g}{unit}")
+    return check
+
+
+def _positive(v):
+    require(v > 0, "must be > 0")
+
+
+def _limits(v):
+    load_limits(v)  # a missing or bad file is an IPFError naming the file
+
+
+def _range(v):
+    require(len(v) == 2 and v[0] <= v[1], "must be LO,HI with LO <= HI")
+
+
+def _filter_default(name: str, key: str) -> str:
+    d = registry.defaults(name).get(key)
+    return "" if d is None else f" (default {d if not isinstance(d, tuple) else ','.join(d)})"
+
+
+OPTIONS: tuple[Option, ...] = (
+    # -- the filter and its budget
+    Option("filter", "--filter", "choice", "ipf", "the filter: ipf (the paper's), apf or sir",
+           choices=registry.NAMES),
+    Option("budget", "--budget", "int", None, "likelihood evaluations per frame; each filter maps it "
+           "onto its own sizes (IPF: M = budget // I)", check=_at_least(1)),
+    Option("particles", "--particles", "int", None, "particles: IPF N = M x I (the largest M that "
+           "fits), APF per layer, SIR in all", "filter"),
+    Option("top_m", "--top-m", "int", None, "IPF: M, distinct particles kept per frame"
+           + _filter_default("ipf", "top_m"), "filter"),
+    Option("points_per_dof", "--points-per-dof", "int", None, "IPF: grid points per interesting DOF"
+           + _filter_default("ipf", "points_per_dof") + "; I = points ** |L|", "filter"),
+    Option("interval_width_deg", "--interval-width", "float", None, "IPF: full interval width, "
+           "degrees per frame (overrides --max-speed)", "filter", metavar="DEG"),
+    Option("max_speed_deg_s", "--max-speed", "float", None, "IPF: maximum angular speed of the "
+           "interesting DOFs, deg/s; the interval is 2 x speed / fps"
+           + _filter_default("ipf", "max_speed_deg_s"), "filter", metavar="DEG_S"),
+    Option("interesting", "--interesting", "dofs", None, "IPF: the DOFs of L, comma-separated "
+           "(default: the four hip and knee flexions)", "filter", metavar="DOF,DOF,..."),
+    Option("noise_scale", "--noise-scale", "float", None, "multiply every filter's per-DOF noise "
+           "rates (default 1)", "filter"),
+    Option("layers", "--layers", "int", None, "APF: annealing layers" + _filter_default("apf", "layers"),
+           "filter"),
+    Option("survival", "--survival", "float", None, "APF: target effective particle fraction per "
+           "layer" + _filter_default("apf", "survival"), "filter"),
+    Option("noise_decay", "--noise-decay", "float", None, "APF: noise std multiplier from one layer "
+           "to the next (default: sqrt of the survival fraction)", "filter"),
+    # -- the observation
+    Option("resolution", "--resolution", "int", DEFAULT_RESOLUTION, "long side of the scoring images, "
+           f"px (default {DEFAULT_RESOLUTION})", check=_within(16, 2048, " px"), metavar="PX"),
+    Option("fps", "--fps", "float", None, f"frame rate, Hz (default: the dataset's, else {DEFAULT_FPS:g})",
+           check=_positive),
+    Option("up_axis", "--up", "axis", None, "the world's up axis, one of " + " ".join(AXES)
+           + " (default: detected from the cameras)", choices=AXES, metavar="AXIS"),
+    # -- the body
+    Option("height_m", "--height", "float", None, "the subject's standing height, m (default: "
+           "searched at initialisation)", check=_within(0.5, 2.6, " m"), metavar="M"),
+    Option("shape_file", "--shape", "path", None, "the subject's shape file, JSON (default: the "
+           "template adult scaled by --height)", metavar="FILE"),
+    Option("limits", "--limits", "limits", "default", "DOF limits: a preset (" + ", ".join(PRESETS)
+           + ") or a JSON file (default: default)", check=_limits, metavar="NAME|FILE"),
+    Option("floor_range", "--floor-range", "range", None, "floor contact (off by default): keep the "
+           "body's lowest point LO..HI m above the floor, e.g. --floor-range=-0.03,0.10 (with '=', "
+           "as the value starts with '-')", check=_range, metavar="LO,HI"),
+    # -- the search
+    Option("init_budget", "--init-budget", "choice", "default", "effort of the automatic "
+           "initialisation: default (the full search) or small (~10x cheaper: quick looks, tests)",
+           choices=tuple(INIT_BUDGETS)),
+    Option("confidence_drop", "--confidence-drop", "float", 0.5, "re-initialise when the best "
+           "weight falls below this fraction of its recent median (default 0.5)",
+           check=_within(0.0, 1.0)),
+    Option("confidence_patience", "--confidence-patience", "int", 2, "... for this many frames in a "
+           "row (default 2)", check=_at_least(1)),
+    Option("origin_shift", "--origin-shift", "bool", True, "body origin positioning from the "
+           "silhouettes between frames (default on; --no-origin-shift turns it off)"),
+    # -- the computation
+    Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)"),
+    Option("chunk", "--chunk", "int", 512, "particles per compiled call: memory vs speed, never the "
+           "result (default 512)", check=_at_least(1)),
+    Option("kernel", "--kernel", "choice", "scanline", "raster kernel: scanline (default) or dense; "
+           "both give the same pixel counts", choices=KERNELS),
+    Option("checkpoint_every", "--checkpoint-every", "int", 10, "write a checkpoint (and run.json) "
+           "every K frames (default 10)", check=_at_least(1), metavar="K"),
+    # -- one run
+    Option("frames", "--frames", "frames", None, "frame numbers to track: A:B (B excluded), A:, "
+           "A:B:S or A (default: all)", "run", metavar="A:B"),
+    Option("init_pose", "--init-pose", "path", None, "start from this pose instead of the automatic "
+           "initialisation: a poses.csv-convention file (first row) or bodytrack's InitialPose.txt",
+           "run", metavar="FILE"),
+)
+BY_KEY = {o.key: o for o in OPTIONS}
+FILTER_KEYS = tuple(o.key for o in OPTIONS if o.target == "filter")
+TRACK_KEYS = tuple(o.key for o in OPTIONS if o.target == "track")
+
+
+def check_value(key: str, value, where: str, path=None) -> None:
+    """One option's own rule. The IPFError names ``where`` and the value (``--height 3.5:
+    outside 0.5..2.6 m``), or, given ``path`` (a config file), the file with ``where`` in the
+    message; a file the option names (a limits file) is named itself."""
+    opt = BY_KEY[key]
+    if value is None:
+        return
+    try:
+        if opt.choices and value not in opt.choices:
+            raise IPFError(f"unknown {key.replace('_', ' ')} {value!r} (choose "
+                           f"{', '.join(opt.choices)})")
+        if opt.check is not None:
+            opt.check(value)
+    except IPFError as e:
+        if e.path is not None:
+            raise
+        if path is None:
+            raise IPFError(e.message, f"{where} {_show(value)}") from None
+        raise IPFError(f"{where} {e.message}", path) from None
+
+
+def split(values: dict) -> tuple[dict, dict, dict]:
+    """(filter options, track fields, run values) of a values dict keyed by option key; None
+    values dropped."""
+    given = {k: v for k, v in values.items() if v is not None}
+    unknown = sorted(set(given) - set(BY_KEY))
+    require(not unknown, f"unknown tracking option(s) {', '.join(unknown)}")
+    pick = lambda target: {k: v for k, v in given.items() if BY_KEY[k].target == target}  # noqa: E731
+    return pick("filter"), pick("track"), pick("run")
+
+
+def check_values(values: dict, *, name: Callable[[str], str] = lambda k: BY_KEY[k].flag,
+                 path=None) -> None:
+    """Every option's rule, then the filter with its budget (without building it). Errors name
+    the options at fault by ``name(key)`` (default: the CLI flags)."""
+    for key, value in values.items():
+        if value is not None:
+            check_value(key, value, name(key), path)
+    filt, track, _ = split(values)
+    fps = track.get("fps") or DEFAULT_FPS
+    try:
+        registry.resolve(track.get("filter", "ipf"), filt, fps, budget=track.get("budget"))
+    except IPFError as e:
+        given = " ".join(f"{name(k)} {_show(values[k])}" for k in ("filter", "budget", *FILTER_KEYS)
+                         if values.get(k) is not None)
+        raise IPFError(e.message, path or given or None) from None
+
+
+def _show(v) -> str:
+    return ",".join(map(str, v)) if isinstance(v, (tuple, list)) else str(v)
+
+
+def defaults() -> dict:
+    """Every option's default, keyed by option key."""
+    return {o.key: o.default for o in OPTIONS}
+
+
+def settings_from(values: dict, *, init_pose=None) -> TrackSettings:
+    """:class:`TrackSettings` from values keyed by option key (missing keys: the defaults).
+
+    init_pose : (D,) the starting pose when ``values["init_pose"]`` named a file (the caller reads
+    it: a bodytrack pose needs the analysis layer to be fitted to our body).
+    """
+    filt, track, _ = split({**defaults(), **values})
+    if "interesting" in filt:
+        filt["interesting"] = tuple(filt["interesting"])
+    if "floor_range" in track:
+        track["floor_range"] = tuple(track["floor_range"])
+    init = init_settings(track.pop("init_budget", "default"))
+    return TrackSettings(filter_options=filt, init=init, init_pose=init_pose, **track)
+
+
+def settings_doc(settings: TrackSettings) -> dict:
+    """``run.json``'s ``settings``: every tracking option's value, keyed by option key (``init``:
+    the initialisation's full settings beside the ``init_budget`` preset they come from)."""
+    doc = {k: settings.filter_options.get(k) for k in FILTER_KEYS}
+    for key in TRACK_KEYS:
+        if key == "init_budget":
+            doc[key] = next((n for n in INIT_BUDGETS if init_settings(n) == settings.init), "custom")
+            doc["init"] = settings.init._asdict()
+        else:
+            value = getattr(settings, key)
+            doc[key] = list(value) if isinstance(value, tuple) else value
+    if doc.get("interesting") is not None:
+        doc["interesting"] = list(doc["interesting"])
+    return doc
+
+
+def resolve_path(value: str, base: Path) -> str:
+    """A file option's value relative to ``base`` (a config's folder); presets stay names."""
+    return value if value in PRESETS else str(expand_path(value, base))
