@@ -80,6 +80,8 @@ MODULE_COMMANDS = {
     "bench": ("ipf_jax.bench", "throughput of the measure step (JAX vs NumPy) and tracking s/frame"),
     "render": ("ipf_jax.render", "overlay video/images of a tracked run over each camera's frames or masks"),
     "fix-single": ("ipf_jax.singlecam.cli", "single-camera post-processing of a run: leg swaps, steady depth"),
+    "init-dataset": ("ipf_jax.init_dataset_cli", "write a dataset.json for videos or image folders and a calibration"),
+    "calibrate": ("ipf_jax.calibrate_cli", "camera calibration from checkerboard/ChArUco images or videos -> cameras.json"),
 }
 
 

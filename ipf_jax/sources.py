@@ -43,9 +43,9 @@ MEDIAN_FRAMES = 25  # frames sampled for a temporal-median background: enough fo
 PERSON_FRAMES = 15  # frames sampled to place a camera from the person's silhouette
 _IMAGE_EXT = (".png", ".bmp", ".jpg", ".jpeg", ".tif", ".tiff")
 _TOP_KEYS = {"format", "version", "description", "calibration", "calibration_units", "cameras",
-             "fps", "up_axis", "frames", "height_m", "camera_height", "segmentation"}
+             "fps", "up_axis", "frames", "height_m", "camera_height", "segmentation", "crop"}
 _CAMERA_KEYS = {"name", "masks", "images", "video", "background", "prefix", "roi", "segmentation",
-                "camera_height"}
+                "camera_height", "crop"}
 _SEG_KEYS = {"threshold", "open_px", "close_px", "cover", "max_foreground"}
 
 
@@ -295,16 +295,24 @@ def _pair_cameras(cams: list[Camera], entries: list[dict], calib: Path) -> list[
     return list(cams)
 
 
-def _fit_to_frames(cam: Camera, size: tuple[int, int], where: str, calib: Path) -> Camera:
-    """A calibration made at another resolution of the same sensor, scaled to the frames."""
+def _fit_to_frames(cam: Camera, size: tuple[int, int], where: str, calib: Path,
+                   crop=None, doc_path: Path | None = None) -> Camera:
+    """The camera for frames of ``size``: the same, scaled (same aspect ratio) or cropped.
+
+    Frames up to :data:`ipf_jax.cropping.AUTO_CROP` narrower or shorter than the calibrated
+    image are that image cut at the right/bottom edge (principal point unchanged), with a
+    warning; a ``crop`` entry names other edges (see :mod:`ipf_jax.cropping`).
+    """
+    from .cropping import crop_camera
+
     w, h = size
-    if (cam.width, cam.height) == (w, h):
+    if crop is None and (cam.width, cam.height) == (w, h):
         return cam
-    scaled = cam.scaled(w / cam.width)
-    require((scaled.width, scaled.height) == (w, h),
-            f"{where}: frames are {w}x{h} but camera {cam.name!r} is calibrated at "
-            f"{cam.width}x{cam.height} (not the same aspect ratio)", calib)
-    return scaled
+    if crop is None:
+        scaled = cam.scaled(w / cam.width)
+        if (scaled.width, scaled.height) == (w, h):
+            return scaled
+    return crop_camera(cam, w, h, crop, where=where, calib=calib, doc_path=doc_path)
 
 
 def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
@@ -334,8 +342,9 @@ def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
     units = doc.get("calibration_units")
     w, h = sources[0].size
     cams = _pair_cameras(read_calibration(calib, w, h, units=units), entries, calib)
-    cams = [_fit_to_frames(c, s.size, f"camera {k}", calib)
-            for k, (c, s) in enumerate(zip(cams, sources), start=1)]
+    crops = [e.get("crop", doc.get("crop")) for e in entries]
+    cams = [_fit_to_frames(c, s.size, f"camera {k}", calib, crop, doc_path)
+            for k, (c, s, crop) in enumerate(zip(cams, sources, crops), start=1)]
     for k, (entry, src) in enumerate(zip(entries, sources), start=1):
         if "roi" in entry:  # in pixels of the frames, known only now
             roi = roi_mask(entry["roi"], *src.size, f"camera {k}", doc_path)
