@@ -46,7 +46,7 @@ _TOP_KEYS = {"format", "version", "description", "calibration", "calibration_uni
              "fps", "up_axis", "frames", "height_m", "camera_height", "segmentation", "crop"}
 _CAMERA_KEYS = {"name", "masks", "images", "video", "background", "prefix", "roi", "segmentation",
                 "camera_height", "crop"}
-_SEG_KEYS = {"threshold", "open_px", "close_px", "cover", "max_foreground"}
+_SEG_KEYS = {"threshold", "open_px", "close_px", "cover", "max_foreground", "shadows"}
 
 
 class Segmentation(NamedTuple):
@@ -62,6 +62,7 @@ class Segmentation(NamedTuple):
     cover: float | None = None
     max_foreground: float | None = None
     roi: np.ndarray | None = None
+    shadows: bool = False  # drop cast shadows (ipf_jax.background_model.shadow_mask)
 
 
 def clean_mask(mask: np.ndarray, seg: Segmentation) -> np.ndarray:
@@ -147,6 +148,11 @@ class SubtractionSource:
     def _segment(self, frame: int) -> np.ndarray:
         s = self.seg
         image, bg = self.image(frame), self.background
+        if s.shadows:  # shadows leave before the clean-up, so it closes no hole over them
+            from .background_model import shadow_mask
+
+            fg = foreground(image, bg, s.threshold, open_px=0, close_px=0)
+            return clean_mask(_cleaned(fg & ~shadow_mask(image, bg), s), s)
         if s.roi is None:
             return clean_mask(foreground(image, bg, s.threshold, open_px=s.open_px,
                                          close_px=s.close_px), s)
@@ -159,6 +165,15 @@ class SubtractionSource:
         fg[r0:r1, c0:c1] = foreground(image[r0:r1, c0:c1], bg[r0:r1, c0:c1], s.threshold,
                                       open_px=s.open_px, close_px=s.close_px)
         return clean_mask(fg, s)
+
+
+def _cleaned(fg: np.ndarray, s: Segmentation) -> np.ndarray:
+    """The opening then closing of :func:`ipf_jax.silhouette.foreground`, on a mask."""
+    out = fg.astype(np.uint8)
+    for px, op in ((s.open_px, cv2.MORPH_OPEN), (s.close_px, cv2.MORPH_CLOSE)):
+        if px > 1:
+            out = cv2.morphologyEx(out, op, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (px, px)))
+    return out.astype(bool)
 
 
 # --- parsing dataset.json ------------------------------------------------------------------------
@@ -214,6 +229,10 @@ def _segmentation(defaults: dict, entry: dict, where: str, doc_path: Path) -> di
     for k in ("cover", "max_foreground"):
         if seg.get(k) is not None:
             out[k] = _number(seg[k], f"{where} {k}", doc_path, lo=1e-6, hi=1.0)
+    if "shadows" in seg:
+        require(isinstance(seg["shadows"], bool), f"{where} shadows must be true or false, got "
+                f"{seg['shadows']!r}", doc_path)
+        out["shadows"] = seg["shadows"]
     return out
 
 
@@ -228,15 +247,52 @@ def _median_of(path: Path, k: int, sl: slice | None, prefix: str):
     return compute
 
 
+def _stable_of(bg: dict, root: Path, own: Path, where: str, doc_path: Path, prefix: str):
+    """``{"model": "stable", "also": [clips], "board": "8x6"}``: see ipf_jax.background_model."""
+    require(bg["model"] == "stable", f"{where} background model must be \"median\" or "
+            f"\"stable\", got {bg['model']!r}", doc_path)
+    bad = sorted(set(bg) & {"source", "median", "frames"})
+    require(not bad, f"{where}: a stable background takes no {', '.join(bad)}", doc_path)
+    also = bg.get("also", [])
+    also = [also] if isinstance(also, str) else also
+    require(isinstance(also, list), f"{where} background also must be a path or a list of paths",
+            doc_path)
+    clips = [resolve(root, a, f"{where} background also", doc_path) for a in also]
+    for c in clips:
+        if not c.exists():
+            raise IPFError(f"{where} background clip not found", c)
+    board = None
+    if "board" in bg:
+        from .checkerboard import parse_board
+
+        require(isinstance(bg["board"], str), f"{where} background board must look like \"8x6\"",
+                doc_path)
+        try:
+            board = parse_board(bg["board"], 1.0)
+        except IPFError as e:
+            raise IPFError(f"{where} background board: {e.message}", doc_path) from None
+
+    def compute() -> np.ndarray:
+        from .background_model import stable_background
+
+        def open_clip(p: Path):
+            return ImageSequence(p, prefix, mode="color") if p.is_dir() else VideoReader(p)
+
+        return stable_background(open_clip(own), [open_clip(c) for c in clips], board=board)
+    return compute
+
+
 def _background(entry: dict, root: Path, own: Path, where: str, doc_path: Path, prefix: str):
     """A callable returning the background image of one camera (see docs/formats.md)."""
     bg = entry.get("background")
     if bg is None or isinstance(bg, str):
         bg = {"median": MEDIAN_FRAMES} if bg is None else {"source": bg}
     require(isinstance(bg, dict), f"{where} background must be a path or an object", doc_path)
-    bad = sorted(set(bg) - {"source", "median", "frames"})
-    require(not bad, f"{where} background: unknown key(s) {', '.join(bad)} (source, median, frames)",
-            doc_path)
+    bad = sorted(set(bg) - {"source", "median", "frames", "model", "also", "board"})
+    require(not bad, f"{where} background: unknown key(s) {', '.join(bad)} (source, median, "
+            "frames, model, also, board)", doc_path)
+    if bg.get("model", "median") != "median":
+        return _stable_of(bg, root, own, where, doc_path, prefix)
     src = own if "source" not in bg else resolve(root, bg["source"], f"{where} background", doc_path)
     if not src.exists():
         raise IPFError(f"{where} background not found", src)
@@ -267,7 +323,7 @@ def make_source(entry: dict, root: Path, where: str, doc_path: Path, seg_default
     kind = kinds[0]
     if kind == "masks":
         require("background" not in entry, f"{where}: masks take no background", doc_path)
-        used = sorted(set(seg) & {"threshold", "open_px", "close_px"})
+        used = sorted(set(seg) & {"threshold", "open_px", "close_px", "shadows"})
         require(not used, f"{where}: masks are used as they are ({', '.join(used)} apply to "
                 "images and videos only)", doc_path)
         folder = resolve(root, entry["masks"], f"{where} masks", doc_path)
