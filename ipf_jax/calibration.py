@@ -120,6 +120,9 @@ def _translation(t, scale: float, path: Path) -> np.ndarray:
 def _image_size(in_file, width, height, path: Path) -> tuple[int, int]:
     """Image size: the file's when it has one (it must match the caller's), else the caller's."""
     if in_file is not None:
+        require(all(np.isfinite(x) and 0 < x <= 100_000 for x in in_file),
+                f"image size {' x '.join(f'{x:g}' for x in in_file)} is not a positive number of "
+                "pixels (at most 100000)", path)
         w, h = (int(round(x)) for x in in_file)
         require(width is None or height is None or (width, height) == (w, h),
                 f"calibration is for {w}x{h} images but the frames are {width}x{height}", path)

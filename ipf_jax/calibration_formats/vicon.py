@@ -131,7 +131,10 @@ def read_vicon(path: str | Path) -> list[Camera]:
         require(skew == 0, f"{where}: non-zero SKEW ({skew:g}) is not supported", path)
         f = number(kf, "FOCAL_LENGTH", where, path)
         require(f > 0, f"{where}: FOCAL_LENGTH must be positive, got {f:g}", path)
+        require(f < 1e6, f"{where}: FOCAL_LENGTH {f:g} px is not plausible", path)
         pp = np.array(numbers(kf, "PRINCIPAL_POINT", where, path, 2))
+        require(0 <= pp[0] < w and 0 <= pp[1] < h, f"{where}: PRINCIPAL_POINT {pp.tolist()} lies "
+                f"outside the {w}x{h} sensor", path)
         q = np.array(numbers(kf, "ORIENTATION", where, path, 4))
         require(abs(np.linalg.norm(q) - 1) < 1e-3, f"{where}: ORIENTATION is not a unit "
                 f"quaternion (norm {np.linalg.norm(q):.4g})", path)
@@ -151,7 +154,16 @@ def read_vicon(path: str | Path) -> list[Camera]:
         else:
             lens_c, coeffs = pp, np.zeros(3)
         K = np.array([[f, 0.0, pp[0]], [0.0, f / aspect, pp[1]], [0.0, 0.0, 1.0]])
-        dist, err, err_centre = fit_opencv(K, w, h, lens_c, coeffs)
+        require(np.all(np.abs(lens_c - pp) < max(w, h)) and np.all(np.abs(coeffs) < 1.0),
+                f"{where}: VICON_RADIAL2 centre or coefficients are not plausible "
+                f"({lens_c.tolist()}, {coeffs.tolist()})", path)
+        with np.errstate(all="ignore"):
+            try:
+                dist, err, err_centre = fit_opencv(K, w, h, lens_c, coeffs)
+            except (np.linalg.LinAlgError, ValueError):
+                err = err_centre = float("inf")
+        require(np.isfinite(err_centre), f"{where}: its lens (Vicon3Parameter {coeffs.tolist()}) "
+                "cannot be converted (the model diverges over the image)", path)
         require(err_centre <= MAX_FIT_PX, f"{where}: its lens (Vicon3Parameter {coeffs.tolist()}) "
                 f"cannot be followed by OpenCV's k1 k2 p1 p2 k3 within {MAX_FIT_PX:g} px in the "
                 f"image centre (worst {err_centre:.2g} px; are the coefficients per pixel squared, "
