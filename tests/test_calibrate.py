@@ -6,7 +6,6 @@ import json
 
 import cv2
 import numpy as np
-import pytest
 
 from ipf_jax import checkerboard as cb
 from ipf_jax.calibration import read_calibration, read_opencv

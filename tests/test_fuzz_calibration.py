@@ -37,7 +37,7 @@ def _cams(shared_data):
 
 
 @pytest.fixture(scope="module")
-def seeds(shared_data, tmp_path_factory):  # noqa: D401
+def seeds(shared_data, tmp_path_factory):
     """name -> (file name, valid text) for every format."""
     d = tmp_path_factory.mktemp("seeds")
     cams = _cams(shared_data)

@@ -8,7 +8,7 @@ import pytest
 from ipf_jax.body.model import DOF_NAMES, NUM_DOF, POINT_NAMES
 from ipf_jax.cli import main
 from ipf_jax.export import write_run_dir
-from ipf_jax.export.opensim import MARKERS, WEIGHTS, ik_setup_xml, marker_set_xml
+from ipf_jax.export.opensim import MARKERS, WEIGHTS
 
 
 def _walk(T=12):
