@@ -145,6 +145,48 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
     return 1.0 if union == 0 else float(np.logical_and(a, b).sum() / union)
 
 
+class MaskQuality:
+    """Per-camera mask-quality figures gathered frame by frame (see :func:`mask_quality`).
+
+    ``add(masks)`` takes one frame's masks, one (H, W) bool array per camera; ``summary(names)``
+    returns one dict per camera. The tracker can feed it the masks it reads anyway and write the
+    summary to run.json (``mask_quality``).
+    """
+
+    def __init__(self):
+        self._rows: list[list[tuple[int, float, int, bool]]] = []
+
+    def add(self, masks) -> None:
+        masks = list(masks)
+        if not self._rows:
+            self._rows = [[] for _ in masks]
+        require(len(masks) == len(self._rows), f"{len(masks)} masks for {len(self._rows)} cameras")
+        for rows, m in zip(self._rows, masks):
+            m = np.asarray(m, bool)
+            area = int(m.sum())
+            if area == 0:
+                rows.append((0, 0.0, 0, False))
+                continue
+            _, _, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
+            areas = stats[1:, cv2.CC_STAT_AREA]
+            rows.append((area, area / m.size, int((areas >= 0.001 * area).sum()),
+                         bool(areas.max() >= DOMINANT * area)))
+
+    def summary(self, names=None) -> list[dict]:
+        require(bool(self._rows) and bool(self._rows[0]), "no masks were added")
+        out = []
+        for k, rows in enumerate(self._rows):
+            total = len(rows)
+            filled = [r for r in rows if r[0] > 0]
+            fig = {"frames": total, "empty_share": round(1 - len(filled) / total, 4),
+                   "one_blob_share": round(sum(r[3] for r in filled) / len(filled), 4)
+                   if filled else 0.0,
+                   "median_foreground": round(float(np.median([r[1] for r in rows])), 5),
+                   "median_blobs": float(np.median([r[2] for r in rows]))}
+            out.append({"camera": names[k], **fig} if names else fig)
+        return out
+
+
 def mask_quality(masks) -> dict:
     """Quality figures of one camera's masks over frames.
 
@@ -153,24 +195,8 @@ def mask_quality(masks) -> dict:
     least :data:`DOMINANT` of the foreground, over non-empty frames), ``median_foreground`` (share
     of the image), ``median_blobs`` (components of at least 0.1 % of the foreground).
     """
-    empty = one = total = 0
-    fg, blobs = [], []
+    acc = MaskQuality()
     for m in masks:
-        m = np.asarray(m, bool)
-        total += 1
-        area = int(m.sum())
-        fg.append(area / m.size)
-        if area == 0:
-            empty += 1
-            blobs.append(0)
-            continue
-        _, _, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
-        areas = stats[1:, cv2.CC_STAT_AREA]
-        blobs.append(int((areas >= 0.001 * area).sum()))
-        one += areas.max() >= DOMINANT * area
-    require(total > 0, "mask_quality needs at least one mask")
-    filled = total - empty
-    return {"frames": total, "empty_share": round(empty / total, 4),
-            "one_blob_share": round(one / filled, 4) if filled else 0.0,
-            "median_foreground": round(float(np.median(fg)), 5),
-            "median_blobs": float(np.median(blobs))}
+        acc.add([m])
+    require(bool(acc._rows), "mask_quality needs at least one mask")
+    return acc.summary()[0]

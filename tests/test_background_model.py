@@ -127,3 +127,16 @@ def test_stable_background_from_dataset_json(uu, tmp_path):
     assert 8000 < m.sum() < 14000  # the seated person (and chair), not the board or the room
     q = mask_quality(ds.masks(f)[0] for f in ds.frames)
     assert q["one_blob_share"] == 1.0 and q["empty_share"] == 0.0
+
+
+def test_mask_quality_accumulates_per_camera_frame_by_frame():
+    from ipf_jax.background_model import MaskQuality
+
+    one = np.zeros((20, 20), bool)
+    one[5:15, 5:10] = True
+    acc = MaskQuality()
+    acc.add([one, np.zeros_like(one)])
+    acc.add([one, one])
+    a, b = acc.summary(["cam1", "cam2"])
+    assert a["camera"] == "cam1" and a["one_blob_share"] == 1.0 and a["empty_share"] == 0.0
+    assert b["empty_share"] == 0.5 and b["frames"] == 2
