@@ -135,6 +135,7 @@ def promised(argv: list[str]) -> list[Path]:
         "demo": lambda: [out / "run" / "joints.csv", out / "demo_summary.json"],
         "sweep": lambda: [out / "summary.csv"], "batch": lambda: [out / "summary.csv"],
         "fix-single": lambda: [out / "joints.csv", out / "run.json"],
+        "init-dataset": lambda: [out / "dataset.json"],
     }.get(cmd, lambda: [out] if out is not None else [])()
 
 
@@ -190,6 +191,8 @@ def table_commands() -> list[str]:
 WALK = "../shared/data/mocap_walk_render/rajagopal_walk_clean_4cam"
 ONE_CAM = "../shared/data/mocap_walk_render/rajagopal_walk_clean_1cam"
 SEQ = "../shared/data/parsec_bodytrack/sequenceB_2"
+UU = "../shared/data/mocap_walk_render/rajagopal_walk_uu_clean_4cam"
+STEREO = "../shared/data/opencv_stereo_calib"
 
 
 def table_invocations(work: Path) -> dict[str, list[list[str]]]:
@@ -213,6 +216,12 @@ def table_invocations(work: Path) -> dict[str, list[list[str]]]:
         "batch": [["batch", "manifest.txt", "--out", "ba", "--frames", "0:3"]],
         "bench": [["bench", "--json", "bench.json"]],
         "fix-single": [["fix-single", "one", "--out", "one_fixed"]],
+        "init-dataset": [["init-dataset", *(f"{UU}/FG{k}" for k in range(1, 5)), "--masks",
+                          "--calibration", f"{UU}/CALIB/cameras.json", "--up=-z", "--out", "uu"],
+                         ["track", "uu", "--out", "uu_run"]],
+        "calibrate": [["calibrate", "--board", "9x6", "--square", "0.025",
+                       "--camera", f"left={STEREO}/left*.jpg", "--camera", f"right={STEREO}/right*.jpg",
+                       "--out", "stereo_cameras.json"]],
     }
 
 
@@ -220,7 +229,8 @@ def test_every_command_of_the_readme_table_runs(checkout, capfd):
     invocations = table_invocations(checkout)
     assert sorted(table_commands()) == sorted(invocations), "README table and this test differ"
     for cmd in ("track", "demo", "score", "gait", "export", "render", "compare", "eval", "sweep",
-                "batch", "bench", "fix-single"):  # track first: later commands read its runs
+                "batch", "bench", "fix-single", "init-dataset", "calibrate"):  # track first: later
+        # commands read its runs
         for argv in invocations[cmd]:
             run_cli(small(["ipf-jax", *argv]), capfd)
 

@@ -9,6 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ..analysis.export.axes import UNIT_SCALE
 from ..analysis.export.bvh import export_bvh
 from ..analysis.export.c3d import export_c3d
@@ -58,10 +60,19 @@ def run(args: argparse.Namespace) -> int:
         export, up, units = EXPORTERS[fmt]
         run_data = read_run(args.run_dir)
         export(run_data, out, up=args.up_axis or up, units=args.units or units)
+        extra = []
+        if fmt == "trc":  # OpenSim's marker set and IK setup for it (docs/export.md)
+            from ..analysis.export.opensim import write_opensim_files
+
+            t = run_data.time_s[np.isfinite(run_data.joints).all(axis=(1, 2))]
+            t0, t1 = (float(t[0]), float(t[-1])) if len(t) else (0.0, 0.0)
+            extra = write_opensim_files(out, t0, t1)
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     print(f"wrote {out} ({fmt}, {len(run_data.frames)} frames)")
+    for path in extra:
+        print(f"wrote {path}")
     return 0
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from ..analysis.singlecam import MEETING_M, MIN_GAIN_M, fix_single_camera
 from ..errors import IPFError, require
 from ..geometry.camera import Camera
-from .options import add_common
+from .options import add_common, flag
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -23,7 +23,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("run_dir", help="a folder written by ipf-jax track (one camera)")
     add_common(p, "out", help="folder for the corrected run (not RUN_DIR)")
     add_common(p, "dataset", help="dataset folder for the camera (default: run.json's)")
-    p.add_argument("--camera", help="camera name or 1-based number (default: the only one)")
+    add_common(p, "camera", help="camera name or 1-based number (default: the only one)")
     p.add_argument("--keep-legs", action="store_true", help="do not correct leg swaps")
     p.add_argument("--keep-depth", action="store_true", help="do not steady the depth")
     p.add_argument("--min-gain", type=float, default=MIN_GAIN_M,
@@ -51,7 +51,7 @@ def _run_camera(args) -> Camera:
     cams = open_dataset(path).cameras
     require(args.camera is not None or len(cams) == 1,
             f"the dataset has {len(cams)} cameras: say which with --camera", path)
-    return cams[pick_cameras(cams, args.camera, "--camera")[0] if args.camera else 0]
+    return cams[pick_cameras(cams, args.camera, flag("camera"))[0] if args.camera else 0]
 
 
 def run(args: argparse.Namespace) -> int:

@@ -29,6 +29,8 @@ MODULE_COMMANDS = {
     "batch": ("ipf_jax.cli.sweep", "track many recordings with one set of settings (resumable; local or Ray)"),
     "bench": ("ipf_jax.cli.bench", "throughput of the measure step (JAX vs NumPy) and tracking s/frame"),
     "render": ("ipf_jax.cli.render", "overlay video/images of a tracked run over each camera's frames or masks"),
+    "init-dataset": ("ipf_jax.cli.init_dataset", "write a dataset.json for videos or image folders and a calibration"),
+    "calibrate": ("ipf_jax.cli.calibrate", "camera calibration from checkerboard/ChArUco images or videos -> cameras.json"),
     "fix-single": ("ipf_jax.cli.fix_single", "single-camera post-processing of a run: leg swaps, steady depth"),
 }
 

@@ -27,6 +27,9 @@ COMMON = {
                                       "(default: all)"}),
     "units": ("--units", {"help": "length unit of the file"}),
     "backend": ("--backend", {"help": "where the work runs"}),
+    "camera": ("--camera", {"help": "one camera, by name or 1-based number"}),
+    "masks": ("--masks", {"action": "store_true", "help": "work on the silhouette masks"}),
+    "size": ("--size", {"help": "image size"}),
 }
 
 

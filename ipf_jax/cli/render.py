@@ -22,10 +22,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     bg = p.add_mutually_exclusive_group()
     bg.add_argument("--images", action="store_true", help="draw over camera images (default when "
                     "the dataset has them)")
-    bg.add_argument("--masks", action="store_true", help="draw over the silhouette masks")
+    add_common(bg, "masks", help="draw over the silhouette masks")
     add_option(p, "frames", help="frame numbers of the run to draw: A:B (B excluded), A:, A:B:S or A "
                "(default: all)")
-    p.add_argument("--size", type=int, help=f"long side of each camera view in pixels (default: "
+    add_common(p, "size", type=int, help=f"long side of each camera view in pixels (default: "
                    f"the camera's, within {MIN_SIDE}..{MAX_SIDE})")
     add_option(p, "fps", help="video frame rate (default: the run's)")
     add_common(p, "quiet")

@@ -16,6 +16,8 @@ import numpy as np
 
 from ..errors import IPFError, require
 from ..geometry.camera import Camera, validate_camera
+from .calibration_formats import read_optitrack, read_qualisys, read_vicon
+from .calibration_formats.sniff import kind_of
 
 try:
     import tomllib
@@ -118,6 +120,9 @@ def _translation(t, scale: float, path: Path) -> np.ndarray:
 def _image_size(in_file, width, height, path: Path) -> tuple[int, int]:
     """Image size: the file's when it has one (it must match the caller's), else the caller's."""
     if in_file is not None:
+        require(all(np.isfinite(x) and 0 < x <= 100_000 for x in in_file),
+                f"image size {' x '.join(f'{x:g}' for x in in_file)} is not a positive number of "
+                "pixels (at most 100000)", path)
         w, h = (int(round(x)) for x in in_file)
         require(width is None or height is None or (width, height) == (w, h),
                 f"calibration is for {w}x{h} images but the frames are {width}x{height}", path)
@@ -212,9 +217,10 @@ def read_opencv(path: str | Path, width: int | None = None, height: int | None =
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as e:  # cv2 5 wraps parse errors in SystemError
-        cause = e.__cause__ or e
-        raise IPFError(f"not a readable OpenCV XML/YAML file ({str(cause).strip()[:120]})",
-                       path) from None
+        cause = str(e.__cause__ or e)
+        line = re.search(r"line (\d+)", cause) or re.search(r"\((\d+)\)", cause)
+        where = f" (parse error near line {line.group(1)})" if line else ""
+        raise IPFError(f"not a readable OpenCV XML/YAML file{where}", path) from None
     try:
         require(fs.isOpened() and fs.root().isMap(), "not a readable OpenCV XML/YAML file", path)
         found = {}
@@ -332,30 +338,17 @@ def write_json(cameras: list[Camera], path: str | Path) -> None:
 
 # --- any of the above ----------------------------------------------------------------------------
 
-def _sniff(path: Path) -> str:
-    """Format of a file with an unknown extension, from its first characters."""
-    try:
-        head = path.read_bytes()[:256].decode("utf-8", "replace").lstrip()
-    except OSError as e:
-        raise IPFError(f"cannot read calibration file ({e})", path) from None
-    if head.startswith(("<?xml", "<opencv_storage", "%YAML")):
-        return "opencv"
-    if head.startswith("{"):
-        return "json"
-    if head.startswith("["):
-        return "toml"
-    if head and _is_float(head.split()[0]):
-        return "cal"
-    raise IPFError("unknown calibration format (expected .cal, .xml/.yml/.yaml, .toml or .json)",
-                   path)
+_LAB_READERS = {"qualisys": read_qualisys, "vicon": read_vicon, "optitrack": read_optitrack}
 
 
 def read_calibration(path: str | Path, width: int | None = None, height: int | None = None, *,
                      units: str | None = None) -> list[Camera]:
     """Read any supported calibration: a file, a bodytrack ``CALIB`` folder or ``cam*/config.xml``.
 
-    path : a ``.cal`` (bodytrack, mm), ``.xml``/``.yml``/``.yaml`` (OpenCV, ``units`` default mm),
-        ``.toml`` (Pose2Sim/anipose, m) or ``.json`` (ipf-jax) file; other extensions are sniffed.
+    path : a bodytrack ``.cal`` (mm), OpenCV ``.xml``/``.yml`` (``units`` default mm),
+        Pose2Sim/anipose ``.toml`` (m), ipf-jax ``.json``, Qualisys ``.qca.txt``, Vicon ``.xcp``
+        or OptiTrack ``.mcal`` file, recognised from its content
+        (:func:`ipf_jax.calibration_formats.kind_of`; another kind of file is named in the error).
         A folder holding ``Camera*.cal`` (or a ``CALIB`` subfolder with them) or
         ``cam*/config.xml``.
     width, height : image size when the file has none (bodytrack defaults to 640x480).
@@ -376,10 +369,11 @@ def read_calibration(path: str | Path, width: int | None = None, height: int | N
         raise IPFError("no calibration in folder (looked for Camera*.cal, CALIB/Camera*.cal, "
                        "cam*/config.xml)", path)
     require(path.exists(), "calibration file not found", path)
-    kind = {".cal": "cal", ".xml": "opencv", ".yml": "opencv", ".yaml": "opencv", ".toml": "toml",
-            ".json": "json"}.get(path.suffix.lower()) or _sniff(path)
+    kind = kind_of(path)  # from the content: an .xml may be OpenCV's, Qualisys', Vicon's ...
     require(units is None or kind in ("opencv", "toml"),
             f"units apply to OpenCV and TOML files only (a {kind} file fixes its own)", path)
+    if kind in _LAB_READERS:
+        return _LAB_READERS[kind](path)
     if kind == "cal":
         return [read_bodytrack_cal(path, width or 640, height or 480)]
     if kind == "opencv":

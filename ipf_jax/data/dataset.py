@@ -24,6 +24,11 @@ from ..geometry.camera import Camera
 from .calibration import read_bodytrack_cal, read_json
 from .sources import MaskSource
 
+_IMAGE_EXT = {".bmp", ".png", ".jpg", ".jpeg", ".tif", ".tiff"}
+_VIDEO_EXT = {".avi", ".mp4", ".mov", ".mkv", ".m4v", ".mpg", ".mpeg", ".webm", ".wmv"}
+INIT_HINT = ("'ipf-jax init-dataset VIDEO_OR_FOLDER ... --calibration FILE --out DIR' "
+             "(see docs/formats.md)")
+
 
 def _natural_key(p: Path):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
@@ -118,12 +123,21 @@ def open_dataset(path: str | Path) -> Dataset:
     if not path.exists():
         raise IPFError("dataset folder not found", path)
     if not path.is_dir():
-        raise IPFError("dataset must be a folder", path)
+        kind = "a video file" if path.suffix.lower() in _VIDEO_EXT else \
+            "an image file" if path.suffix.lower() in _IMAGE_EXT \
+            else "a file"
+        raise IPFError(f"dataset must be a folder, and this is {kind}: describe your videos or "
+                       f"image folders and their calibration with {INIT_HINT}", path)
     if (path / "dataset.json").exists():
         return open_described(path)
     if (path / "CALIB").is_dir():
         return open_bodytrack(path)
-    raise IPFError("unknown dataset layout: expected CALIB/ + FGk/ folders (bodytrack) or a dataset.json", path)
+    images = [p for p in path.iterdir() if p.suffix.lower() in _IMAGE_EXT]
+    videos = [p for p in path.iterdir() if p.suffix.lower() in _VIDEO_EXT]
+    found = (f" (it holds {len(images)} images)" if images else
+             f" (it holds {len(videos)} videos)" if videos else "")
+    raise IPFError(f"unknown dataset layout{found}: expected CALIB/ + FGk/ folders (bodytrack) or "
+                   f"a dataset.json; write one with {INIT_HINT}", path)
 
 
 def open_described(path: Path) -> Dataset:

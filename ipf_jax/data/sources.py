@@ -50,10 +50,10 @@ MEDIAN_FRAMES = 25  # frames sampled for a temporal-median background: enough fo
 PERSON_FRAMES = 15  # frames sampled to place a camera from the person's silhouette
 _IMAGE_EXT = (".png", ".bmp", ".jpg", ".jpeg", ".tif", ".tiff")
 _TOP_KEYS = {"format", "version", "description", "calibration", "calibration_units", "cameras",
-             "fps", "up_axis", "frames", "height_m", "camera_height", "segmentation"}
+             "fps", "up_axis", "frames", "height_m", "camera_height", "segmentation", "crop"}
 _CAMERA_KEYS = {"name", "masks", "images", "video", "background", "prefix", "roi", "segmentation",
-                "camera_height"}
-_SEG_KEYS = {"threshold", "open_px", "close_px", "cover", "max_foreground"}
+                "camera_height", "crop"}
+_SEG_KEYS = {"threshold", "open_px", "close_px", "cover", "max_foreground", "shadows"}
 
 
 class Segmentation(NamedTuple):
@@ -69,6 +69,7 @@ class Segmentation(NamedTuple):
     cover: float | None = None
     max_foreground: float | None = None
     roi: np.ndarray | None = None
+    shadows: bool = False  # drop cast shadows (ipf_jax.background_model.shadow_mask)
 
 
 def clean_mask(mask: np.ndarray, seg: Segmentation) -> np.ndarray:
@@ -158,6 +159,11 @@ class SubtractionSource:
     def _segment(self, frame: int) -> np.ndarray:
         s = self.seg
         image, bg = self.image(frame), self.background
+        if s.shadows:  # shadows leave before the clean-up, so it closes no hole over them
+            from .background_model import shadow_mask
+
+            fg = foreground(image, bg, s.threshold, open_px=0, close_px=0)
+            return clean_mask(_cleaned(fg & ~shadow_mask(image, bg), s), s)
         if s.roi is None:
             return clean_mask(foreground(image, bg, s.threshold, open_px=s.open_px,
                                          close_px=s.close_px), s)
@@ -170,6 +176,15 @@ class SubtractionSource:
         fg[r0:r1, c0:c1] = foreground(image[r0:r1, c0:c1], bg[r0:r1, c0:c1], s.threshold,
                                       open_px=s.open_px, close_px=s.close_px)
         return clean_mask(fg, s)
+
+
+def _cleaned(fg: np.ndarray, s: Segmentation) -> np.ndarray:
+    """The opening then closing of :func:`ipf_jax.silhouette.foreground`, on a mask."""
+    out = fg.astype(np.uint8)
+    for px, op in ((s.open_px, cv2.MORPH_OPEN), (s.close_px, cv2.MORPH_CLOSE)):
+        if px > 1:
+            out = cv2.morphologyEx(out, op, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (px, px)))
+    return out.astype(bool)
 
 
 # --- parsing dataset.json ------------------------------------------------------------------------
@@ -225,6 +240,10 @@ def _segmentation(defaults: dict, entry: dict, where: str, doc_path: Path) -> di
     for k in ("cover", "max_foreground"):
         if seg.get(k) is not None:
             out[k] = _number(seg[k], f"{where} {k}", doc_path, lo=1e-6, hi=1.0)
+    if "shadows" in seg:
+        require(isinstance(seg["shadows"], bool), f"{where} shadows must be true or false, got "
+                f"{seg['shadows']!r}", doc_path)
+        out["shadows"] = seg["shadows"]
     return out
 
 
@@ -239,15 +258,52 @@ def _median_of(path: Path, k: int, sl: slice | None, prefix: str):
     return compute
 
 
+def _stable_of(bg: dict, root: Path, own: Path, where: str, doc_path: Path, prefix: str):
+    """``{"model": "stable", "also": [clips], "board": "8x6"}``: see ipf_jax.background_model."""
+    require(bg["model"] == "stable", f"{where} background model must be \"median\" or "
+            f"\"stable\", got {bg['model']!r}", doc_path)
+    bad = sorted(set(bg) & {"source", "median", "frames"})
+    require(not bad, f"{where}: a stable background takes no {', '.join(bad)}", doc_path)
+    also = bg.get("also", [])
+    also = [also] if isinstance(also, str) else also
+    require(isinstance(also, list), f"{where} background also must be a path or a list of paths",
+            doc_path)
+    clips = [resolve(root, a, f"{where} background also", doc_path) for a in also]
+    for c in clips:
+        if not c.exists():
+            raise IPFError(f"{where} background clip not found", c)
+    board = None
+    if "board" in bg:
+        from .checkerboard import parse_board
+
+        require(isinstance(bg["board"], str), f"{where} background board must look like \"8x6\"",
+                doc_path)
+        try:
+            board = parse_board(bg["board"], 1.0)
+        except IPFError as e:
+            raise IPFError(f"{where} background board: {e.message}", doc_path) from None
+
+    def compute() -> np.ndarray:
+        from .background_model import stable_background
+
+        def open_clip(p: Path):
+            return ImageSequence(p, prefix, mode="color") if p.is_dir() else VideoReader(p)
+
+        return stable_background(open_clip(own), [open_clip(c) for c in clips], board=board)
+    return compute
+
+
 def _background(entry: dict, root: Path, own: Path, where: str, doc_path: Path, prefix: str):
     """A callable returning the background image of one camera (see docs/formats.md)."""
     bg = entry.get("background")
     if bg is None or isinstance(bg, str):
         bg = {"median": MEDIAN_FRAMES} if bg is None else {"source": bg}
     require(isinstance(bg, dict), f"{where} background must be a path or an object", doc_path)
-    bad = sorted(set(bg) - {"source", "median", "frames"})
-    require(not bad, f"{where} background: unknown key(s) {', '.join(bad)} (source, median, frames)",
-            doc_path)
+    bad = sorted(set(bg) - {"source", "median", "frames", "model", "also", "board"})
+    require(not bad, f"{where} background: unknown key(s) {', '.join(bad)} (source, median, "
+            "frames, model, also, board)", doc_path)
+    if bg.get("model", "median") != "median":
+        return _stable_of(bg, root, own, where, doc_path, prefix)
     src = own if "source" not in bg else resolve(root, bg["source"], f"{where} background", doc_path)
     if not src.exists():
         raise IPFError(f"{where} background not found", src)
@@ -278,7 +334,7 @@ def make_source(entry: dict, root: Path, where: str, doc_path: Path, seg_default
     kind = kinds[0]
     if kind == "masks":
         require("background" not in entry, f"{where}: masks take no background", doc_path)
-        used = sorted(set(seg) & {"threshold", "open_px", "close_px"})
+        used = sorted(set(seg) & {"threshold", "open_px", "close_px", "shadows"})
         require(not used, f"{where}: masks are used as they are ({', '.join(used)} apply to "
                 "images and videos only)", doc_path)
         folder = resolve(root, entry["masks"], f"{where} masks", doc_path)
@@ -306,16 +362,24 @@ def _pair_cameras(cams: list[Camera], entries: list[dict], calib: Path) -> list[
     return list(cams)
 
 
-def _fit_to_frames(cam: Camera, size: tuple[int, int], where: str, calib: Path) -> Camera:
-    """A calibration made at another resolution of the same sensor, scaled to the frames."""
+def _fit_to_frames(cam: Camera, size: tuple[int, int], where: str, calib: Path,
+                   crop=None, doc_path: Path | None = None) -> Camera:
+    """The camera for frames of ``size``: the same, scaled (same aspect ratio) or cropped.
+
+    Frames up to :data:`ipf_jax.cropping.AUTO_CROP` narrower or shorter than the calibrated
+    image are that image cut at the right/bottom edge (principal point unchanged), with a
+    warning; a ``crop`` entry names other edges (see :mod:`ipf_jax.cropping`).
+    """
+    from .cropping import crop_camera
+
     w, h = size
-    if (cam.width, cam.height) == (w, h):
+    if crop is None and (cam.width, cam.height) == (w, h):
         return cam
-    scaled = cam.scaled(w / cam.width)
-    require((scaled.width, scaled.height) == (w, h),
-            f"{where}: frames are {w}x{h} but camera {cam.name!r} is calibrated at "
-            f"{cam.width}x{cam.height} (not the same aspect ratio)", calib)
-    return scaled
+    if crop is None:
+        scaled = cam.scaled(w / cam.width)
+        if (scaled.width, scaled.height) == (w, h):
+            return scaled
+    return crop_camera(cam, w, h, crop, where=where, calib=calib, doc_path=doc_path)
 
 
 def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
@@ -345,8 +409,9 @@ def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
     units = doc.get("calibration_units")
     w, h = sources[0].size
     cams = _pair_cameras(read_calibration(calib, w, h, units=units), entries, calib)
-    cams = [_fit_to_frames(c, s.size, f"camera {k}", calib)
-            for k, (c, s) in enumerate(zip(cams, sources), start=1)]
+    crops = [e.get("crop", doc.get("crop")) for e in entries]
+    cams = [_fit_to_frames(c, s.size, f"camera {k}", calib, crop, doc_path)
+            for k, (c, s, crop) in enumerate(zip(cams, sources, crops), start=1)]
     for k, (entry, src) in enumerate(zip(entries, sources), start=1):
         if "roi" in entry:  # in pixels of the frames, known only now
             roi = roi_mask(entry["roi"], *src.size, f"camera {k}", doc_path)
