@@ -8,6 +8,7 @@ ties them together (:func:`analyse`); :mod:`.report` and :mod:`.plots` write the
 :mod:`.cli` is the ``ipf-jax gait`` command.
 """
 from .analysis import GaitResult, analyse
-from .io import Trajectories, load, make_trajectories
+from .io import load
+from .trajectories import Trajectories, make_trajectories
 
 __all__ = ["GaitResult", "Trajectories", "analyse", "load", "make_trajectories"]

@@ -33,6 +33,7 @@ class DataSegment(NamedTuple):
     start, stop : frame indices into the trial, ``stop`` exclusive (F = stop - start frames).
     time : (F,) seconds.  points : role -> (F, 3) metres, gap-filled and low-pass filtered.
     filled : number of frames interpolated in required points.
+    raw : role -> (F, 3) gap-filled but unfiltered (for event cues that need a higher cut-off).
     """
 
     start: int
@@ -40,6 +41,7 @@ class DataSegment(NamedTuple):
     time: np.ndarray
     points: dict
     filled: int
+    raw: dict
 
 
 def effective_cutoff(cutoff_hz: float, fps: float) -> float:
@@ -114,7 +116,8 @@ def split_segments(time: np.ndarray, points: dict, required: tuple, *, fps: floa
         seg_pts = {role: lowpass(x[a:b], fps, cutoff_hz) for role, x in filled.items()}
         n_filled = sum(int(np.sum(~np.all(np.isfinite(points[r][a:b]), axis=1)))
                        for r in required)
-        segments.append(DataSegment(a, b, time[a:b], seg_pts, n_filled))
+        segments.append(DataSegment(a, b, time[a:b], seg_pts, n_filled,
+                                    {role: x[a:b] for role, x in filled.items()}))
     if len(segments) > 1:
         notes.append(f"gaps longer than {max_gap} frames split the trial into {len(segments)} "
                      "parts analysed separately")
