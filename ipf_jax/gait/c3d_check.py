@@ -169,16 +169,22 @@ def _parameters(section: bytes, proc: int, path: Path) -> dict:
         name_end = pos + 2 + n
         if name_end + 2 > end:
             raise IPFError("C3D parameter section ends inside a record name", path)
-        try:
-            name = section[pos + 2:name_end].decode("ascii").strip().upper()
-        except UnicodeDecodeError:
-            raise IPFError(f"C3D parameter name at byte {pos} is not ASCII", path) from None
+        raw_name = section[pos + 2:name_end]
+        if not raw_name.strip() or not all(32 <= c < 127 for c in raw_name):
+            raise IPFError(f"C3D parameter or group name at byte {pos} is not printable ASCII",
+                           path)
+        name = raw_name.decode("ascii").strip().upper()
         offset = struct.unpack(endian + "h", section[name_end:name_end + 2])[0]
         nxt = name_end + offset if offset else end
         if offset < 0 or (offset and nxt <= name_end) or nxt > end:
             raise IPFError(f"C3D parameter {name!r} links outside the parameter section", path)
         body = name_end + 2
         if gid < 0:
+            if -gid in groups or name in groups.values():
+                raise IPFError(f"C3D group {name!r} (id {-gid}) is defined twice", path)
+            if body + 1 > nxt or (offset and body + 1 + section[body] != nxt):
+                raise IPFError(f"C3D group {name!r}: its description does not end where the "
+                               "next record starts (corrupt parameter section)", path)
             groups[-gid] = name
         else:
             if body + 2 > nxt:
@@ -194,9 +200,11 @@ def _parameters(section: bytes, proc: int, path: Path) -> dict:
             dims = tuple(section[body + 2:body + 2 + ndim])
             nbytes = abs(dtype) * int(np.prod(dims, dtype=np.int64)) if ndim else abs(dtype)
             data = body + 2 + ndim
-            if data + nbytes > nxt:
-                raise IPFError(f"C3D parameter {name!r} holds {nbytes} bytes of data, more than "
-                               "its record", path)
+            if data + nbytes + 1 > nxt or (offset and data + nbytes + 1 + section[data + nbytes]
+                                           != nxt):
+                raise IPFError(f"C3D parameter {name!r}: {nbytes} bytes of data and its "
+                               "description do not end where the next record starts (corrupt "
+                               "parameter section)", path)
             pending.append((gid, name, _decode(section[data:data + nbytes], dtype, dims, proc,
                                               endian)))
         if not offset:
