@@ -140,7 +140,7 @@ def test_steps_outside_the_physiological_bounds_are_rejected():
     steps, strides, rejected = apply_bounds([ok, slow, wide], [stride, flight])
     assert steps == [ok] and strides == [stride]
     reasons = [r.reason for r in rejected]
-    assert any("step_time_s 3" in r and "[0.25, 2.5]" in r for r in reasons)
+    assert any("step_time_s 3" in r and "[0.3, 2.5]" in r for r in reasons)
     assert any("step_width_m 0.9" in r for r in reasons)
     assert any("double_support_s" in r for r in reasons)
 

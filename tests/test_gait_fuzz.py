@@ -10,8 +10,9 @@ seeds and the regressions, where it must also leave no output folder). The seeds
 TRC and C3D export of a procedural walk (made here) and, when the shared data is present, two real
 C3D files in DEC and Intel formats. C3D mutations aim at the structure ezc3d trusts: header words
 and floats, parameter records (name length, group id, link, type, dimensions, values), the data
-section (truncated, zero-filled, NaN-filled). A wider campaign (2700 files, 3 process aborts found
-in ezc3d and prevented by :mod:`ipf_jax.gait.c3d_check`) is described in ``docs/gait.md``.
+section (truncated, zero-filled, NaN-filled). The wider campaigns (files read in child
+processes, and ``-m slow`` here) and the process aborts they found in ezc3d, now refused by
+:mod:`ipf_jax.gait.c3d_check`, are described in ``docs/gait.md``.
 """
 from __future__ import annotations
 
@@ -259,7 +260,7 @@ def test_fuzzed_c3d_ends_cleanly(seeds, tmp_path_factory, mutation, seed):
 
 
 # --------------------------------------------------------------------------------------------------
-# Regressions found by the campaign: each aborted the process inside ezc3d (SIGSEGV)
+# Regressions found by the campaigns: each aborted the process inside ezc3d (SIGSEGV)
 
 
 def _flip_group_id(data: bytes, record_name: bytes, new_gid: int) -> bytes:
@@ -283,6 +284,18 @@ def test_a_parameter_turned_into_a_group_is_refused_before_ezc3d(shared_data, tm
     path.write_bytes(_flip_group_id(data, record, gid))
     assert check_command(path, tmp_path / "out") == 2
     assert "corrupt parameter section" in run_gait(path, tmp_path / "out")[1]
+
+
+def test_a_cut_parameter_section_is_refused_before_ezc3d(shared_data, tmp_path):
+    # ANALOG:OFFSET's link set to 0 ends the section there: ANALOG:SCALE is never read, and
+    # ezc3d scaled 28 channels with a missing scale (SIGSEGV)
+    data = bytearray((shared_data("gait_trials") / "motionanalysis_btk_gait/Gait.c3d").read_bytes())
+    pos, nl, gid, ne = next(r for r in records(bytes(data)) if data[r[0] + 2:r[3]] == b"OFFSET")
+    data[ne:ne + 2] = b"\x00\x00"
+    path = tmp_path / "cut.c3d"
+    path.write_bytes(bytes(data))
+    assert check_command(path, tmp_path / "out") == 2
+    assert "ANALOG:SCALE holds 0 values for 28" in run_gait(path, tmp_path / "out")[1]
 
 
 def test_the_seeds_themselves_are_read(seeds, tmp_path):

@@ -12,8 +12,11 @@ file and what is inconsistent. It checks (C3D User Guide, c3d.org):
   inside the file; every group and parameter record (name length, group id, data type -1/1/2/4,
   at most 7 dimensions, data inside the record and the section, forward links), at most
   :data:`MAX_RECORDS` records; parameters only in groups that exist;
-* consistency: POINT:USED equals the header's point count, and the data section (frames x
-  (4 x points + analog samples) words of 2 or 4 bytes) fits in the file (not truncated).
+* the counts ezc3d will read with (it lets POINT:USED, POINT:FRAMES, POINT:RATE, ANALOG:USED and
+  ANALOG:RATE override the header) are finite and non-negative, and the data section (frames x
+  (4 x points + analog samples) words of 2 or 4 bytes) fits in the file (not truncated);
+* with analog channels, ANALOG:SCALE and ANALOG:OFFSET hold a value per channel and
+  ANALOG:GEN_SCALE exists (ezc3d indexes them unchecked: a cut parameter section aborted it).
 
 The result (:class:`C3DLayout`) also carries the few parameters the gait reader uses.
 """
@@ -123,6 +126,20 @@ def _layout(path, size, proc, pblock, n_blocks, params, h_points, h_analog, firs
         per_frame = int(a_rate / rate)
     analogs = _int(params, ("ANALOG", "USED"), h_analog // h_per_frame if h_per_frame else 0)
     analog_per_frame = analogs * per_frame
+    for name in ("USED", "SCALE"):
+        if _count(params, "POINT", name) < 1:
+            raise IPFError(f"C3D POINT:{name} is missing (corrupt or cut parameter section)", path)
+    if analogs and analog_per_frame:
+        # ezc3d scales every analog sample by its channel's SCALE and OFFSET (and GEN_SCALE)
+        # without checking that they exist: a missing entry is read out of bounds
+        for name in ("SCALE", "OFFSET"):
+            n = _count(params, "ANALOG", name)
+            if n < analogs:
+                raise IPFError(f"C3D ANALOG:{name} holds {n} values for {analogs} analog channels "
+                               "(corrupt or cut parameter section)", path)
+        if _count(params, "ANALOG", "GEN_SCALE") < 1:
+            raise IPFError("C3D ANALOG:GEN_SCALE is missing (corrupt or cut parameter section)",
+                           path)
     if points and not (np.isfinite(rate) and 0 < rate <= 1e6):
         raise IPFError(f"C3D frame rate {rate!r} is not a positive number", path)
     if not np.isfinite(h_scale) or h_scale == 0:
@@ -233,6 +250,16 @@ def _decode(raw: bytes, dtype: int, dims: tuple, proc: int, endian: str):
     if proc == 85:
         return np.array([_float(raw[i:i + 4], proc) for i in range(0, len(raw), 4)])
     return np.frombuffer(raw, dtype=endian + "f4").astype(float)
+
+
+def _count(params: dict, group: str, name: str) -> int:
+    """Values of GROUP:NAME and its continuations NAME2, NAME3, ... (0 when absent)."""
+    total, k, key = 0, 2, (group, name)
+    while key in params:
+        v = params[key]
+        total += v.size if isinstance(v, np.ndarray) else len(v)
+        key, k = (group, f"{name}{k}"), k + 1
+    return total
 
 
 def _num(params: dict, key: tuple, default: float) -> float:

@@ -25,10 +25,10 @@ the next heel strike of the other foot and is named after the foot that strikes 
 
 **Physiological bounds** (:data:`STEP_BOUNDS`, :data:`STRIDE_BOUNDS`): a step or stride outside
 them is rejected (listed in ``rejected`` with the reason) and takes no part in any statistic or in
-cadence: step time 0.25-2.5 s (24-240 steps/min), step length -0.5-1.5 m (a short or backward
+cadence: step time 0.3-2.5 s (24-200 steps/min; faster is running), step length -0.5-1.5 m (a short or backward
 step happens in step-to gait; longer than 1.5 m is not walking), step width 0-0.6 m; stride time
 0.5-5 s, stance 30-95 % of the stride, double support not negative (a flight phase: running,
-or wrong events). Before that, a heel strike closer than 0.25 s to the other foot's is dropped
+or wrong events). Before that, a heel strike closer than 0.3 s to the other foot's is dropped
 (:func:`drop_close_strikes`): the one nearer an end of the part, where extrema are least reliable.
 """
 from __future__ import annotations
@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 SIDES = ("left", "right")
-MIN_STEP_S = 0.25
+MIN_STEP_S = 0.3
 #: field -> (low, high), inclusive; NaN values (unknown) are not judged.
 STEP_BOUNDS = {"step_time_s": (MIN_STEP_S, 2.5), "step_length_m": (-0.5, 1.5),
                "step_width_m": (0.0, 0.6)}
