@@ -182,3 +182,14 @@ def test_fall_risk_measures_and_the_speed_reference(walk):
     assert fr["stride_time_cv_pct"]["value"] < 1.0
     assert fr["double_support_pct"]["value"] == pytest.approx(2 * (62 - 50), abs=4)
     assert analyse(walk[0]).fall_risk["walking_speed_m_s"]["flag"] is None  # 1.2 m/s
+
+
+def test_a_jump_in_the_clock_splits_the_trial(walk):
+    traj, truth = walk
+    time = traj.time.copy()
+    time[250:] += 2.0  # 2 s missing from the record (frames skipped)
+    res = analyse(traj._replace(time=time))
+    assert any("jumps in the clock" in n for n in res.notes)
+    assert len(res.parts) == 2
+    assert all(not (time[249] < s.end_s and s.start_s < time[250]) for s in res.steps)
+    assert res.lab["cadence_steps_per_min"] == pytest.approx(truth.cadence_steps_per_min, abs=1)
