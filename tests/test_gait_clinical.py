@@ -9,8 +9,13 @@ from ipf_jax.errors import IPFError
 from ipf_jax.gait import analyse, load
 from ipf_jax.gait.events import FootEvents
 from ipf_jax.gait.markersets import MARKER_SETS
-from ipf_jax.gait.parameters import (Step, Stride, apply_bounds, cadence_and_speed,
-                                     drop_close_strikes)
+from ipf_jax.gait.parameters import (
+    Step,
+    Stride,
+    apply_bounds,
+    cadence_and_speed,
+    drop_close_strikes,
+)
 from ipf_jax.gait.synthetic import synthetic_walk
 
 #: role -> label in each recognised set (one representative alternative per role)
@@ -35,8 +40,8 @@ def write_trc(path, columns: dict, time: np.ndarray, *, units="mm"):
     scale = {"mm": 1000.0, "m": 1.0}[units]
     names = list(columns)
     lines = [f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
-             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
-             "OrigDataStartFrame\tOrigNumFrames",
+             ("DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+              "OrigDataStartFrame\tOrigNumFrames"),
              "\t".join(map(str, (100, 100, len(time), len(names), units, 100, 1, len(time)))),
              "Frame#\tTime\t" + "".join(f"{n}\t\t\t" for n in names),
              "\t\t" + "".join(f"X{i}\tY{i}\tZ{i}\t" for i in range(1, len(names) + 1)), ""]

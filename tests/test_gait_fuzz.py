@@ -216,7 +216,7 @@ def mutate_c3d(data: bytes, mutation) -> bytes:
         off = (12, 20)[n % 2]
         b[off:off + 4] = struct.pack("<f", fval)
     elif kind == "record" and recs:
-        pos, nl, gid, ne = recs[n % len(recs)]
+        pos, _nl, gid, ne = recs[n % len(recs)]
         body = ne + 2
         choice = which % 5
         if choice == 0:
@@ -231,7 +231,7 @@ def mutate_c3d(data: bytes, mutation) -> bytes:
             b[body + 1] = int(rng.integers(0, 256))
     elif kind == "value" and recs:
         params = [r for r in recs if r[2] > 0]
-        pos, nl, gid, ne = params[n % len(params)]
+        _pos, _nl, _gid, ne = params[n % len(params)]
         body = ne + 2
         d = body + 2 + b[body + 1]
         b[d:d + 4] = [struct.pack("<f", fval), struct.pack("<hh", -1, -1),
@@ -290,7 +290,7 @@ def test_a_cut_parameter_section_is_refused_before_ezc3d(shared_data, tmp_path):
     # ANALOG:OFFSET's link set to 0 ends the section there: ANALOG:SCALE is never read, and
     # ezc3d scaled 28 channels with a missing scale (SIGSEGV)
     data = bytearray((shared_data("gait_trials") / "motionanalysis_btk_gait/Gait.c3d").read_bytes())
-    pos, nl, gid, ne = next(r for r in records(bytes(data)) if data[r[0] + 2:r[3]] == b"OFFSET")
+    *_, ne = next(r for r in records(bytes(data)) if data[r[0] + 2:r[3]] == b"OFFSET")
     data[ne:ne + 2] = b"\x00\x00"
     path = tmp_path / "cut.c3d"
     path.write_bytes(bytes(data))

@@ -4,7 +4,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import ipf_jax.gait as gait
+from ipf_jax import gait
 
 PACKAGE = Path(gait.__file__).parent
 

@@ -12,13 +12,33 @@ import numpy as np
 from ..errors import IPFError
 from . import angles as angles_mod
 from .direction import Heading, straight_parts, to_walking
-from .events import (CONTACT_MIN_FPS, DEFAULT_METHOD, FINE_CUTOFF_HZ, FINE_MAX_FRACTION,
-                     HEIGHT_CUTOFF_HZ, HEIGHT_MAX_FRACTION, METHODS, detect)
+from .events import (
+    CONTACT_MIN_FPS,
+    DEFAULT_METHOD,
+    FINE_CUTOFF_HZ,
+    FINE_MAX_FRACTION,
+    HEIGHT_CUTOFF_HZ,
+    HEIGHT_MAX_FRACTION,
+    METHODS,
+    detect,
+)
 from .fallrisk import measures as fall_risk_measures
-from .filtering import (DEFAULT_CUTOFF_HZ, DEFAULT_MAX_GAP_S, effective_cutoff, lowpass,
-                        split_segments)
-from .parameters import (SIDES, apply_bounds, cadence_and_speed, drop_close_strikes,
-                         missing_reasons, steps_and_strides, summarise)
+from .filtering import (
+    DEFAULT_CUTOFF_HZ,
+    DEFAULT_MAX_GAP_S,
+    effective_cutoff,
+    lowpass,
+    split_segments,
+)
+from .parameters import (
+    SIDES,
+    apply_bounds,
+    cadence_and_speed,
+    drop_close_strikes,
+    missing_reasons,
+    steps_and_strides,
+    summarise,
+)
 from .trajectories import Trajectories
 
 EVENT_NAMES = tuple(f"{s}_{e}" for s in SIDES for e in ("heel_strike", "toe_off"))
@@ -157,8 +177,8 @@ def _resolve_method(method: str, fps: float, stand_ins: dict) -> tuple[str, str]
         return "contact", (f"events: contact method ({fps:g} fps, heel and toe points; auto "
                            f"uses it from {CONTACT_MIN_FPS:g} fps)")
     reason = (f"{fps:g} fps" if fps < CONTACT_MIN_FPS else "no heel points")
-    return "zeni", f"events: Zeni method (auto: {reason}; the contact method needs " \
-                   f"{CONTACT_MIN_FPS:g} fps and heel points)"
+    return "zeni", (f"events: Zeni method (auto: {reason}; the contact method needs "
+                    f"{CONTACT_MIN_FPS:g} fps and heel points)")
 
 
 def _choose_points(traj: Trajectories) -> tuple[dict, dict, list, dict]:

@@ -38,7 +38,7 @@ def read_c3d(path: str | Path) -> MarkerData:
         residuals = np.asarray(c3d["data"]["meta_points"]["residuals"], dtype=float)
         units_param = params.get("UNITS", {}).get("value") or [None]
         screen = params.get("Y_SCREEN", {}).get("value") or [None]
-    except Exception as e:  # ezc3d raises plain RuntimeError/IOError/IndexError on damage
+    except Exception as e:  # noqa: BLE001 - ezc3d raises RuntimeError/IOError/IndexError/...
         raise IPFError(f"cannot read C3D ({type(e).__name__}: {e})", path) from None
     if data.ndim != 3 or data.shape[0] < 3 or data.shape[2] < 2 or not labels:
         raise IPFError(f"C3D has no usable point data ({data.shape[2] if data.ndim == 3 else 0} "

@@ -16,6 +16,7 @@ longer than three median steps: frames skipped, or a damaged time column).
 """
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import NamedTuple
 
 import numpy as np
@@ -140,7 +141,7 @@ def _pieces(ids: np.ndarray) -> list:
     """(start, stop) of each run of equal values in ``ids`` (F,)."""
     cuts = np.flatnonzero(np.diff(ids)) + 1
     edges = np.concatenate([[0], cuts, [len(ids)]])
-    return list(zip(edges[:-1], edges[1:]))
+    return list(pairwise(edges))
 
 
 def true_runs(mask: np.ndarray) -> list:

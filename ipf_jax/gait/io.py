@@ -24,8 +24,14 @@ from .markers import read_marker_file
 from .trajectories import UNIT_SCALE, Trajectories, make_trajectories
 from .vertical import infer_up
 
-__all__ = ["Trajectories", "make_trajectories", "UNIT_SCALE", "load", "read_joints_csv",
-           "write_joints_csv"]
+__all__ = [
+    "UNIT_SCALE",
+    "Trajectories",
+    "load",
+    "make_trajectories",
+    "read_joints_csv",
+    "write_joints_csv",
+]
 
 MAX_CSV_BYTES = 256 << 20
 
@@ -120,9 +126,9 @@ def read_joints_csv(path: str | Path, *, up: str | None = None, units: str | Non
     # the run's fps is its dataset's; rows may be every k-th frame, so trust the time column
     # unless it matches
     time = table[:, col["time_s"]]
-    if fps and len(time) > 1 and np.all(np.isfinite(time)) and np.median(np.diff(time)) > 0:
-        if abs(1.0 / np.median(np.diff(time)) - fps) > 0.01 * fps:
-            fps = None
+    if (fps and len(time) > 1 and np.all(np.isfinite(time)) and np.median(np.diff(time)) > 0
+            and abs(1.0 / np.median(np.diff(time)) - fps) > 0.01 * fps):
+        fps = None
     return make_trajectories(time, points, up_axis=up_axis, source=path, fps=fps,
                              notes=tuple(notes), cameras=cameras)
 

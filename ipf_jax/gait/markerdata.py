@@ -44,8 +44,8 @@ def from_columns(labels: list, xyz: np.ndarray) -> tuple[dict, tuple]:
                 continue
         out[label] = cleaned[i]
     if repeated:
-        notes += (f"repeated marker labels {', '.join(sorted(set(repeated)))}: the copy with "
-                  "the most frames of data is used",)
+        notes += ((f"repeated marker labels {', '.join(sorted(set(repeated)))}: the copy with "
+                   "the most frames of data is used"),)
     return out, notes
 
 

@@ -30,8 +30,14 @@ from .trajectories import ROLES, UNIT_SCALE, Trajectories, make_trajectories
 from .trc import read_trc
 from .vertical import PELVIS_HEIGHT_M, infer_unit, infer_up, pelvis_height
 
-__all__ = ["MarkerData", "read_trc", "read_c3d", "read_marker_file", "load_marker_map",
-           "apply_marker_map"]
+__all__ = [
+    "MarkerData",
+    "apply_marker_map",
+    "load_marker_map",
+    "read_c3d",
+    "read_marker_file",
+    "read_trc",
+]
 
 
 def read_marker_file(path: str | Path, *, marker_map: str | Path | None = None,

@@ -46,7 +46,7 @@ def smoothed_velocity(time: np.ndarray, path: np.ndarray, window_s: float = SMOO
     """(F, k) central difference of ``path`` (F, k) over ``window_s`` (shrinking at the ends)."""
     n = len(time)
     fps = (n - 1) / (time[-1] - time[0])
-    half = max(1, int(round(window_s * fps)) // 2)
+    half = max(1, round(window_s * fps) // 2)
     lo = np.clip(np.arange(n) - half, 0, n - 1)
     hi = np.clip(np.arange(n) + half, 0, n - 1)
     return (path[hi] - path[lo]) / (time[hi] - time[lo])[:, None]

@@ -33,6 +33,7 @@ or wrong events). Before that, a heel strike closer than 0.3 s to the other foot
 """
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import NamedTuple
 
 import numpy as np
@@ -118,7 +119,7 @@ def drop_close_strikes(events: dict, start: float, end: float) -> tuple[dict, li
     """
     strikes = sorted((t, s) for s in SIDES for t in events[s].heel_strike)
     drop = set()
-    for (t0, s0), (t1, s1) in zip(strikes, strikes[1:]):
+    for (t0, s0), (t1, s1) in pairwise(strikes):
         if s0 != s1 and t1 - t0 < MIN_STEP_S and (t0, s0) not in drop:
             edge0, edge1 = min(t0 - start, end - t0), min(t1 - start, end - t1)
             drop.add((t1, s1) if edge1 <= edge0 else (t0, s0))
@@ -143,7 +144,7 @@ def steps_and_strides(part: int, time: np.ndarray, heels: dict, events: dict, *,
 
     strikes = sorted((t, s) for s in SIDES for t in events[s].heel_strike)
     steps = []
-    for (t0, s0), (t1, s1) in zip(strikes, strikes[1:]):
+    for (t0, s0), (t1, s1) in pairwise(strikes):
         if s0 == s1:  # the other foot's strike was not found: no step to measure
             continue
         p1 = heel_at(s1, t1)
@@ -155,7 +156,7 @@ def steps_and_strides(part: int, time: np.ndarray, heels: dict, events: dict, *,
     for side in SIDES:
         other = "right" if side == "left" else "left"
         hs = events[side].heel_strike
-        for ta, tb in zip(hs, hs[1:]):
+        for ta, tb in pairwise(hs):
             if mode == "treadmill":
                 inside = [s.step_length_m for s in steps if ta < s.end_s <= tb]
                 length = sum(inside) if len(inside) == 2 else np.nan
@@ -210,7 +211,7 @@ def cadence_and_speed(parts: list, rejected: list) -> dict:
     overground = True
     for index, mode, strikes, pelvis_at in parts:
         overground &= mode == "overground"
-        for (t0, s0), (t1, s1) in zip(strikes, strikes[1:]):
+        for (t0, s0), (t1, s1) in pairwise(strikes):
             if any(p == index and a <= t0 + 1e-9 and t1 <= b + 1e-9 for p, a, b in bad):
                 continue
             n = 1 if s0 != s1 else 2

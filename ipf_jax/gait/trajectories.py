@@ -84,8 +84,8 @@ def make_trajectories(time: np.ndarray, points: dict, *, up_axis: str, source: s
         raise IPFError(f"unknown up axis {up_axis!r} (choose one of {', '.join(AXES)})", source)
     notes = tuple(notes)
     if bad:
-        notes += (f"{bad} point samples infinite or farther than {MAX_ABS_M:g} m from the origin "
-                  "read as missing",)
+        notes += ((f"{bad} point samples infinite or farther than {MAX_ABS_M:g} m from the "
+                   "origin read as missing"),)
     # rounded so that a 20 Hz clock written as 0.05 s steps reads as exactly 20 Hz
     rate = float(fps) if fps else round(float(1.0 / np.median(np.diff(time))), 6)
     if not (np.isfinite(rate) and rate > 0):

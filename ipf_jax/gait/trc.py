@@ -93,8 +93,8 @@ def read_trc(path: str | Path) -> MarkerData:
             raise IPFError("TRC Time column does not increase", path)
         measured = 1.0 / float(np.median(steps))
         if abs(measured - rate) > 0.01 * rate:
-            mismatch = (f"TRC DataRate {rate:g} Hz disagrees with its Time column "
-                        f"({measured:.4g} Hz): the Time column is used",)
+            mismatch = ((f"TRC DataRate {rate:g} Hz disagrees with its Time column "
+                         f"({measured:.4g} Hz): the Time column is used"),)
             rate = measured
     xyz = table[:, 2:].reshape(len(table), n_markers, 3).transpose(1, 0, 2)   # (M, T, 3)
     markers, notes = from_columns(names, xyz)
