@@ -23,11 +23,12 @@ def test_run_on_the_real_trc_writes_all_outputs(shared_data, tmp_path, capsys):
     assert cli.run(_parse(["gait", str(trc), "--out", str(out)])) == 0
     assert "heel strikes" in capsys.readouterr().out
     for name in ("gait.json", "steps.csv", "strides.csv", "displacement.png", "angles.png",
-                 "report.html"):
+                 "variability.png", "report.html"):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
     doc = json.loads((out / "gait.json").read_text())
-    assert doc["format"] == "ipf-jax-gait" and doc["method"] == "zeni"
-    for key in ("direction", "segments", "events", "parameters", "missing", "curves", "filter"):
+    assert doc["format"] == "ipf-jax-gait" and doc["method"] == "contact"  # auto at 100 fps
+    for key in ("direction", "segments", "events", "parameters", "missing", "curves", "filter",
+                "fall_risk", "lab", "rejected", "bounds"):
         assert key in doc
     assert set(doc["events"]) == {"left_heel_strike", "right_heel_strike", "left_toe_off",
                                   "right_toe_off"}
@@ -40,10 +41,11 @@ def test_run_on_the_real_trc_writes_all_outputs(shared_data, tmp_path, capsys):
     assert len(rows) == doc["counts"]["steps"] == 3
     lengths = [float(r["step_length_m"]) for r in rows]
     assert np.mean(lengths) == pytest.approx(doc["parameters"]["step_length_m"]["all"]["mean"])
-    for png in ("displacement.png", "angles.png"):
+    for png in ("displacement.png", "angles.png", "variability.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = (out / "report.html").read_text()
-    assert page.count("data:image/png;base64,") == 2
+    assert page.count("data:image/png;base64,") == 3
+    assert "Balance and fall risk" in page and "World guidelines for falls" in page
     assert "http" not in page  # self-contained
 
 

@@ -135,8 +135,11 @@ def _garbage_c3d(tmp_path):
 
 
 def _no_up(tmp_path):
+    # no run.json, and no pelvis/foot points for the body to show its up axis
     traj, _ = synthetic_walk(duration_s=2.0, fps=50.0)
-    return write_joints_csv(traj, tmp_path / "joints.csv", run_json=False), {}
+    arms = {k: v for k, v in traj.points.items() if "wrist" in k or "elbow" in k}
+    return write_joints_csv(traj._replace(points=arms), tmp_path / "joints.csv",
+                            run_json=False), {}
 
 
 def _bad_map(tmp_path):
@@ -162,7 +165,7 @@ BAD = {
     "missing marker": (_missing_marker, "walk.trc", "L.Heal"),
     "truncated trc": (_truncated_trc, "cut.trc", "truncated"),
     "unknown type": (_unknown_type, "walk.xyz", "unknown file type"),
-    "garbage c3d": (_garbage_c3d, "broken.c3d", "cannot read C3D"),
+    "garbage c3d": (_garbage_c3d, "broken.c3d", "not a C3D file"),
     "no up axis": (_no_up, "joints.csv", "--up"),
     "bad marker map": (_bad_map, "map.json", "not readable JSON"),
     "no straight part": (_walking_in_circles, "circles.csv", "no straight walking part"),
@@ -177,6 +180,12 @@ def test_bad_input_is_one_clear_error(tmp_path, case):
         analyse(load(path, **kwargs))
     msg = str(info.value)
     assert filename in msg and problem in msg, msg
+
+
+def test_joints_csv_without_run_json_takes_the_up_axis_from_the_body(tmp_path):
+    traj, _ = synthetic_walk(duration_s=3.0, fps=50.0, up_axis="-y")
+    back = load(write_joints_csv(traj, tmp_path / "joints.csv", run_json=False))
+    assert back.up_axis == "-y" and any("from the body" in n for n in back.notes)
 
 
 def test_c3d_clock_starts_at_its_first_frame(tmp_path, walk):

@@ -85,8 +85,9 @@ def test_symmetry_index_sign_and_stats():
              Step(0, "left", 1.0, 1.5, 0.5, 0.62, 0.1, 1.2, 0.1, 0.4)]
     params, sym = summarise(steps, [])
     left = params["step_length_m"]["left"]
-    assert left == {"mean": 0.61, "sd": pytest.approx(0.014142, abs=1e-6), "n": 2}
+    assert left == {"mean": 0.61, "sd": pytest.approx(0.014142, abs=1e-6),
+                    "cv_pct": pytest.approx(100 * 0.014142 / 0.61, abs=1e-3), "n": 2}
     assert params["step_length_m"]["right"]["sd"] is None
     assert sym["step_length_m"] == pytest.approx(100 * (0.70 - 0.61) / 0.655, abs=1e-4)
-    assert params["cadence_steps_per_min"]["all"]["mean"] == pytest.approx(120.0)
+    assert params["cadence_steps_per_min"]["all"]["mean"] == pytest.approx(120.0)  # per step
     assert params["stride_time_s"]["all"]["n"] == 0

@@ -123,6 +123,7 @@ def check_writable(out_dir: Path) -> Path:
     return out_dir
 
 
+MAX_TABLE_BYTES = 1 << 30  # a run CSV of a day at 100 Hz is far smaller
 MAX_COORD_M = 1e5  # metres: larger coordinates are not positions in a capture volume
 
 
@@ -138,12 +139,15 @@ class JointsTable(NamedTuple):
 def read_table(path: str | Path, what: str = "CSV") -> tuple[list[str], np.ndarray]:
     """(header, (T, K) float64 values) of a comma-separated numeric table with one header line.
 
-    Every cell must be a number (``nan`` and ``inf`` parse; callers decide what they accept); a
-    row with another number of cells than the header, a non-numeric cell or a file without rows
-    is an :class:`IPFError` naming the file and the line.
+    Every cell must be a number (``nan`` and ``inf`` parse, an empty cell is ``nan``: a missing
+    value; callers decide what they accept); a row with another number of cells than the header, a
+    non-numeric cell, a file without rows or one larger than :data:`MAX_TABLE_BYTES` is an
+    :class:`IPFError` naming the file and the line.
     """
     path = Path(path)
     try:
+        if path.stat().st_size > MAX_TABLE_BYTES:
+            raise IPFError(f"larger than {MAX_TABLE_BYTES >> 20} MiB: not a run CSV", path)
         text = path.read_text()
     except FileNotFoundError:
         raise IPFError("file not found", path) from None
@@ -158,7 +162,7 @@ def read_table(path: str | Path, what: str = "CSV") -> tuple[list[str], np.ndarr
         require(len(cells) == len(header), f"line {n} has {len(cells)} values, the header "
                 f"{len(header)}", path)
         try:
-            rows.append([float(c) for c in cells])
+            rows.append([float(c) if c.strip() else np.nan for c in cells])
         except ValueError:
             bad = next(c for c in cells if not _is_number(c))
             raise IPFError(f"line {n}: {bad.strip()[:20]!r} is not a number", path) from None

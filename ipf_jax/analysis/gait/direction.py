@@ -6,9 +6,11 @@ faster than 0.15 m/s and the heading stays within 20 degrees of the heading wher
 turns and stops therefore end a part, and parts shorter than 0.8 s are skipped with a note. The
 direction of a part is its net horizontal displacement.
 
-Treadmill: the sacrum barely moves (no moving run long enough), but the feet still swing. The
-direction is then the principal axis of the feet's horizontal motion relative to the sacrum, signed
-so that the toes point forward (toe ahead of heel, or of ankle).
+Overground or treadmill is decided first, from the data with a margin (:mod:`.mode`). A clip
+shorter than a straight part whose pelvis moves is analysed as one overground part, with a note.
+
+Treadmill: the direction is the principal axis of the feet's horizontal motion relative to the
+sacrum, signed so that the toes point forward (toe ahead of heel, or of ankle).
 
 Neither: the trial has no walking, and :class:`IPFError` says so.
 """
@@ -20,6 +22,8 @@ import numpy as np
 
 from ...errors import IPFError
 from .filtering import true_runs
+from .mode import decide as decide_mode
+from .mode import smoothed_velocity
 
 MIN_SPEED = 0.15          # m/s: slower than this the sacrum is standing (or on a treadmill)
 MAX_HEADING_DEV_DEG = 20.0
@@ -66,29 +70,41 @@ def straight_parts(time: np.ndarray, sacrum: np.ndarray, feet: dict, up: np.ndar
     """Split one gap-free data segment into straight walking parts.
 
     time : (F,) s.  sacrum : (F, 3) m.  feet : {"left"/"right": (heel_or_ankle (F, 3),
-    toe (F, 3) or None)}.  up : (3,). Returns (parts, notes).
-    Raises :class:`IPFError` when there is no walking at all or no part is long enough.
+    toe (F, 3) or None)}.  up : (3,). Returns (parts, notes). Overground or treadmill is decided
+    first (:mod:`.mode`). Raises :class:`IPFError` when there is no walking at all or no part is
+    long enough.
     """
     fps = (len(time) - 1) / (time[-1] - time[0])
     e1, e2 = horizontal_basis(up)
     path = np.stack([sacrum @ e1, sacrum @ e2], axis=1)               # (F, 2)
-    vel = _smoothed_velocity(time, path, int(round(_SMOOTH_S * fps)))
+    vel = smoothed_velocity(time, path, _SMOOTH_S)
     speed = np.linalg.norm(vel, axis=1)
     excursion = _foot_excursion(sacrum, feet, e1, e2)
     travel = float(np.linalg.norm(path[-1] - path[0]))
-    min_frames = max(3, int(np.ceil(MIN_PART_S * fps)))
-    moving = speed > MIN_SPEED
     if excursion < MIN_FOOT_EXCURSION:
         raise IPFError(f"no walking found: between {time[0]:.2f} and {time[-1]:.2f} s the feet "
                        f"move at most {excursion:.2f} m relative to the sacrum (walking needs "
                        f"{MIN_FOOT_EXCURSION} m) and the sacrum travels {travel:.2f} m", source)
-    runs = [(a, b) for a, b in true_runs(moving) if b - a >= min_frames]
-    if not runs:
+    heels = [np.stack([h @ e1, h @ e2], axis=1) for h, _ in feet.values()]
+    mode = decide_mode(time, path, heels)
+    if mode.mode == "treadmill":
         heading = _treadmill_heading(sacrum, feet, e1, e2, up, source)
-        note = (f"treadmill walking assumed: the sacrum moves slower than {MIN_SPEED} m/s while "
-                f"the feet swing {excursion:.2f} m; direction from the feet's fore-aft motion")
-        return [Part(0, len(time), heading, travel)], [note]
-    parts, notes = [], []
+        return [Part(0, len(time), heading, travel)], [
+            mode.note + "; direction from the feet's fore-aft motion"]
+    min_frames = max(3, int(np.ceil(MIN_PART_S * fps)))
+    notes = [mode.note]
+    runs = [(a, b) for a, b in true_runs(speed > MIN_SPEED) if b - a >= min_frames]
+    if not runs:
+        # a clip shorter than a straight part, with the pelvis moving: one part, said so
+        disp = path[-1] - path[0]
+        if len(time) < 4 or np.linalg.norm(disp) <= 0:
+            raise IPFError(f"{time[-1] - time[0]:.2f} s of walking is too short to analyse",
+                           source)
+        notes.append(f"the whole {time[-1] - time[0]:.2f} s clip analysed as one straight "
+                     f"part (shorter than the {MIN_PART_S} s a part needs otherwise)")
+        forward = disp[0] * e1 + disp[1] * e2
+        return [Part(0, len(time), make_heading(forward, up, "overground"), travel)], notes
+    parts = []
     covered = int(sum(b - a for a, b in runs))
     if covered < len(time):
         notes.append(f"{len(time) - covered} frames where the sacrum stands still or barely "
@@ -123,15 +139,6 @@ def horizontal_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e1 = a - (a @ up) * up
     e1 /= np.linalg.norm(e1)
     return e1, np.cross(up, e1)
-
-
-def _smoothed_velocity(time: np.ndarray, path: np.ndarray, window: int) -> np.ndarray:
-    """(F, 2) central difference over ``window`` frames (shrinking at the ends)."""
-    n = len(time)
-    half = max(1, window // 2)
-    lo = np.clip(np.arange(n) - half, 0, n - 1)
-    hi = np.clip(np.arange(n) + half, 0, n - 1)
-    return (path[hi] - path[lo]) / (time[hi] - time[lo])[:, None]
 
 
 def _foot_excursion(sacrum, feet, e1, e2) -> float:

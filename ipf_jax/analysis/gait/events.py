@@ -1,7 +1,23 @@
-"""Heel strikes and toe-offs of one foot from its forward (walking-direction) coordinates.
+"""Heel strikes and toe-offs of one foot from its coordinates in the walking frame.
 
-Two methods, one signature ``(time, sacrum, heel, toe) -> FootEvents`` (all (F,) forward
-coordinates in metres of one straight part, already low-pass filtered):
+Methods share one signature ``(time, sacrum, heel, toe) -> FootEvents`` (all (F,) forward
+coordinates in metres of one straight part, already low-pass filtered; ``contact`` also reads
+finer-filtered 3-D signals):
+
+``contact`` (default for marker data: ``auto`` picks it from 50 fps with real heel points). Heel
+strike: for each Zeni heel strike (below) three cues, and their median: (1) the Zeni time, which
+comes early (the heel is furthest ahead before it lands: -30 to -65 ms on the gait_trials); (2)
+the first time from 0.05 s before it to 0.25 s after it that the heel's sagittal speed (forward
+velocity relative to the foot's stance level, with its vertical velocity) falls below 0.26 x the
+walking speed; (3) the first local minimum of heel height within 10 mm of the lowest in that
+window, which comes late when the heel sinks into the shoe after contact. The median is the
+speed cue unless it leaves the bracket the other two make (a heel gliding at contact, or one that
+stops before it). Toe-off: the toe's forward ground velocity rises above 0.8 x the walking speed
+before its swing peak. Cues are read from signals filtered at 15 Hz (height: 20 Hz), at most a
+quarter (a third) of the frame rate. On the six gait_trials and the Rajagopal walk every heel
+strike is within max(2 frames, 20 ms) of the force plates and every toe-off within 27 ms, but the
+heel-strike margin is thin (the worst at 0.98 of its tolerance): the labs' plates disagree with
+each other by more than any kinematic cue can absorb (``docs/gait.md``).
 
 ``zeni`` (default; Zeni, Richards & Higginson 2008, Gait Posture 27:710): heel strike is a maximum
 of heel minus sacrum, toe-off a minimum of toe minus sacrum. It needs no threshold and works
@@ -27,8 +43,24 @@ from typing import NamedTuple
 import numpy as np
 from scipy.signal import find_peaks
 
-METHODS = ("zeni", "velocity")
-DEFAULT_METHOD = "zeni"
+METHODS = ("auto", "contact", "zeni", "velocity")
+DEFAULT_METHOD = "auto"
+#: ``auto`` uses ``contact`` from this frame rate up (with real heel points), else ``zeni``.
+CONTACT_MIN_FPS = 50.0
+#: Cut-off (Hz) of the fine signals the ``contact`` cues are read from (at most fps / 4).
+FINE_CUTOFF_HZ = 15.0
+FINE_MAX_FRACTION = 0.25
+#: ... and the heel-height cue at this cut-off (at most a third of the frame rate).
+HEIGHT_CUTOFF_HZ = 20.0
+HEIGHT_MAX_FRACTION = 1.0 / 3.0
+#: contact cues: heel sagittal speed below this fraction of the walking speed ...
+HS_SPEED_V = 0.26
+#: ... searched from 0.05 s before the Zeni heel strike to 0.25 s after it; the first local
+#: minimum of heel height within 10 mm of the window's lowest.
+HS_WINDOW_S = (0.05, 0.25)
+HS_LOW_M = 0.010
+#: contact toe-off: the toe's forward ground velocity rises above this fraction of the speed.
+TO_SPEED_V = 0.8
 MIN_INTERVAL_S = 0.5
 MIN_DEPTH_FRACTION = 0.25
 SWING_PEAK_V = 1.5
@@ -44,12 +76,22 @@ class FootEvents(NamedTuple):
 
 
 def detect(time: np.ndarray, sacrum: np.ndarray, heel: np.ndarray, toe: np.ndarray | None, *,
-           method: str = DEFAULT_METHOD) -> FootEvents:
-    """Events of one foot by ``method`` (``zeni`` or ``velocity``); see the module docs.
+           method: str = "zeni", fine: dict | None = None) -> FootEvents:
+    """Events of one foot by ``method`` (``contact``, ``zeni`` or ``velocity``); see module docs.
 
     time : (F,) s.  sacrum, heel : (F,) forward coordinate, m.  toe : (F,) or None (no toe-offs).
+    fine : for ``contact``, ``{"sacrum", "heel", "toe"}`` -> (F, 3) walking-frame coordinates
+    (forward, left, up) filtered at :data:`FINE_CUTOFF_HZ` (``toe`` may be None).
     """
-    if method == "zeni":
+    if method == "contact":
+        if fine is None:
+            raise ValueError("the contact method needs the fine signals")
+        hs = _contact_strikes(time, sacrum, heel, fine)
+        to = (_crossings(time, fine["toe"][:, 0], _walking_speed(time, fine["sacrum"][:, 0],
+                                                                 fine["heel"][:, 0]),
+                         TO_SPEED_V, after_peak=False)
+              if fine.get("toe") is not None else np.empty(0))
+    elif method == "zeni":
         hs = _extrema_times(time, heel - sacrum)
         to = _extrema_times(time, -(toe - sacrum)) if toe is not None else np.empty(0)
     elif method == "velocity":
@@ -60,6 +102,41 @@ def detect(time: np.ndarray, sacrum: np.ndarray, heel: np.ndarray, toe: np.ndarr
     else:
         raise ValueError(f"unknown event method {method!r} (choose from {METHODS})")
     return FootEvents(np.asarray(hs, dtype=float), np.asarray(to, dtype=float))
+
+
+def _contact_strikes(time: np.ndarray, sacrum: np.ndarray, heel: np.ndarray,
+                     fine: dict) -> np.ndarray:
+    """Heel strikes as the median of three cues per Zeni heel strike (see module docs)."""
+    zeni = _extrema_times(time, heel - sacrum)
+    h = fine["heel"]
+    speed = _walking_speed(time, fine["sacrum"][:, 0], h[:, 0])
+    vx = np.gradient(h[:, 0], time)
+    vx = vx - _stance_level(vx)
+    sp = np.hypot(vx, np.gradient(h[:, 2], time))
+    z = fine["heel_height"] if fine.get("heel_height") is not None else h[:, 2]
+    out = []
+    for tz in zeni:
+        a = max(1, int(np.searchsorted(time, tz - HS_WINDOW_S[0])))
+        b = min(len(time) - 2, int(np.searchsorted(time, tz + HS_WINDOW_S[1])))
+        if b - a < 2:
+            continue
+        t_speed = np.nan
+        thr = HS_SPEED_V * speed
+        for k in range(a, b):
+            if sp[k] >= thr > sp[k + 1]:
+                t_speed = _time_at(time, k + (sp[k] - thr) / (sp[k] - sp[k + 1]))
+                break
+        if not np.isfinite(t_speed) and tz + HS_WINDOW_S[1] > time[-1]:
+            continue  # the record ends before the heel has slowed: not confirmed
+        low = z[a:b + 1].min()
+        t_low = np.nan
+        for k in range(a + 1, b):
+            if z[k] - low < HS_LOW_M and z[k] <= z[k - 1] and z[k] <= z[k + 1]:
+                t_low = _time_at(time, refine_peak(-z, k))
+                break
+        cues = np.array([tz, t_speed, t_low])
+        out.append(float(np.nanmedian(cues)))
+    return np.array(out)
 
 
 def refine_peak(y: np.ndarray, i: int) -> float:

@@ -11,10 +11,12 @@ strikes 2 ms earlier (see ``docs/gait.md``).
 
 Gaps: a point missing for at most ``max_gap_s`` (default 0.1 s, at least one frame) is linearly
 interpolated; a longer gap in a required point splits the trial into segments analysed separately,
-since bridging a whole step would invent a foot contact.
+since bridging a whole step would invent a foot contact. So does a jump in the clock (a time step
+longer than three median steps: frames skipped, or a damaged time column).
 """
 from __future__ import annotations
 
+from itertools import pairwise
 from typing import NamedTuple
 
 import numpy as np
@@ -25,6 +27,8 @@ DEFAULT_CUTOFF_HZ = 5.0
 MAX_CUTOFF_FRACTION = 0.25
 DEFAULT_MAX_GAP_S = 0.1
 _ORDER = 2  # per pass; two passes make the fourth-order zero-lag filter
+#: A time step longer than this many median steps splits the trial (no velocity across it).
+MAX_CLOCK_JUMP = 3.0
 
 
 class DataSegment(NamedTuple):
@@ -33,6 +37,7 @@ class DataSegment(NamedTuple):
     start, stop : frame indices into the trial, ``stop`` exclusive (F = stop - start frames).
     time : (F,) seconds.  points : role -> (F, 3) metres, gap-filled and low-pass filtered.
     filled : number of frames interpolated in required points.
+    raw : role -> (F, 3) gap-filled but unfiltered (for event cues that need a higher cut-off).
     """
 
     start: int
@@ -40,6 +45,7 @@ class DataSegment(NamedTuple):
     time: np.ndarray
     points: dict
     filled: int
+    raw: dict
 
 
 def effective_cutoff(cutoff_hz: float, fps: float) -> float:
@@ -104,21 +110,38 @@ def split_segments(time: np.ndarray, points: dict, required: tuple, *, fps: floa
     for role in required:
         ok &= np.all(np.isfinite(filled[role]), axis=1)
     segments, notes = [], []
+    # a jump in the clock (frames skipped, or a damaged time column) also ends a segment
+    dt = np.diff(time)
+    jumps = np.flatnonzero(dt > MAX_CLOCK_JUMP * np.median(dt))
+    if jumps.size:
+        notes.append(f"{jumps.size} jumps in the clock (longer than {MAX_CLOCK_JUMP:g} frame "
+                     "intervals) split the trial")
+    run_id = np.concatenate([[0], np.cumsum(dt > MAX_CLOCK_JUMP * np.median(dt))])
     if count:
         notes.append(f"{count} missing frames (gaps up to {max_gap} frames) interpolated "
                      "in required points")
-    for a, b in true_runs(ok):
+    runs = [(a + c, a + d) for a, b in true_runs(ok)
+            for c, d in _pieces(run_id[a:b])]
+    for a, b in runs:
         if b - a < min_frames:
             notes.append(f"frames {a}-{b - 1} dropped: only {b - a} complete frames")
             continue
         seg_pts = {role: lowpass(x[a:b], fps, cutoff_hz) for role, x in filled.items()}
         n_filled = sum(int(np.sum(~np.all(np.isfinite(points[r][a:b]), axis=1)))
                        for r in required)
-        segments.append(DataSegment(a, b, time[a:b], seg_pts, n_filled))
+        segments.append(DataSegment(a, b, time[a:b], seg_pts, n_filled,
+                                    {role: x[a:b] for role, x in filled.items()}))
     if len(segments) > 1:
         notes.append(f"gaps longer than {max_gap} frames split the trial into {len(segments)} "
                      "parts analysed separately")
     return segments, notes
+
+
+def _pieces(ids: np.ndarray) -> list:
+    """(start, stop) of each run of equal values in ``ids`` (F,)."""
+    cuts = np.flatnonzero(np.diff(ids)) + 1
+    edges = np.concatenate([[0], cuts, [len(ids)]])
+    return list(pairwise(edges))
 
 
 def true_runs(mask: np.ndarray) -> list:

@@ -2,79 +2,82 @@
 
 Three inputs are accepted (see ``docs/gait.md``): the tracker's ``joints.csv`` (or any CSV in that
 convention holding a subset of the 19 points), marker files ``.trc`` and ``.c3d`` turned into body
-points through a marker map (:mod:`.markers`). Whatever the source, the result is a
-:class:`Trajectories`: seconds on the input's own clock, metres, and the world's up vector, so the
-analysis never needs to know where the data came from.
+points through a recognised marker set or a marker map (:mod:`.markers`). Whatever the source,
+the result is a :class:`~.trajectories.Trajectories`: seconds on the input's own clock, metres,
+and the world's up vector, so the analysis never needs to know where the data came from.
+
+A ``run.json`` beside the input (as ``ipf-jax track`` writes it) gives the up axis of a
+joints CSV and the number of cameras (its ``cameras`` list): with one camera the depth across
+its line of sight is not measured, and the analysis says so instead of giving numbers.
 """
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
 from ...body.model import POINT_NAMES
+from ...data.runfiles import read_table
 from ...errors import IPFError, load_json
+from .markers import read_marker_file
 from .trajectories import UNIT_SCALE, Trajectories, make_trajectories
+from .vertical import infer_up
+
+__all__ = [
+    "UNIT_SCALE",
+    "Trajectories",
+    "load",
+    "make_trajectories",
+    "read_joints_csv",
+    "write_joints_csv",
+]
 
 
-#: Metres per unit for the ``--units`` choices.
+
 def load(path: str | Path, *, marker_map: str | Path | None = None, up: str | None = None,
-         units: str | None = None) -> Trajectories:
+         units: str | None = None, cameras: int | None = None) -> Trajectories:
     """Read a ``joints.csv``-style CSV, a ``.trc`` or a ``.c3d`` file.
 
-    ``marker_map`` (TRC/C3D only) is a JSON file of roles -> marker names; the default is the
-    shipped Rajagopal map. ``up`` (``+x`` ... ``-z``) and ``units`` (``m``/``mm``) override what the
-    file says. Raises :class:`IPFError` naming the file for anything unreadable.
+    ``marker_map`` (TRC/C3D only) is a JSON file of roles -> marker names; without one the
+    marker set is recognised. ``up`` (``+x`` ... ``-z``) and ``units`` (``m``/``cm``/``mm``)
+    override what the file says; ``cameras`` overrides ``run.json``'s camera count. Raises
+    :class:`IPFError` naming the file for anything unreadable.
     """
     path = Path(path)
     if not path.is_file():
         raise IPFError("file not found", path)
     if units is not None and units not in UNIT_SCALE:
-        raise IPFError(f"unknown units {units!r} (choose m or mm)", path)
+        raise IPFError(f"unknown units {units!r} (choose {', '.join(UNIT_SCALE)})", path)
+    if cameras is not None and (not isinstance(cameras, int) or cameras < 1):
+        raise IPFError(f"the number of cameras must be a positive integer, got {cameras!r}")
+    meta = _run_json(path)
+    if cameras is None:
+        cameras = _camera_count(meta, path)
     suffix = path.suffix.lower()
     if suffix == ".csv":
         if marker_map is not None:
             raise IPFError("--marker-map applies to .trc/.c3d marker files, not to a joints CSV",
                            path)
-        return read_joints_csv(path, up=up, units=units)
+        return read_joints_csv(path, up=up, units=units, meta=meta, cameras=cameras)
     if suffix in (".trc", ".c3d"):
-        from . import markers
-
-        return markers.read_marker_file(path, marker_map=marker_map, up=up, units=units)
+        return read_marker_file(path, marker_map=marker_map, up=up, units=units,
+                                cameras=cameras)
     raise IPFError(f"unknown file type {path.suffix!r} (expected .csv joints, .trc or .c3d)", path)
 
 
-def read_joints_csv(path: str | Path, *, up: str | None = None,
-                    units: str | None = None) -> Trajectories:
+def read_joints_csv(path: str | Path, *, up: str | None = None, units: str | None = None,
+                    meta: dict | None = None, cameras: int | None = None) -> Trajectories:
     """Read a CSV in the ``joints.csv`` convention (``frame,time_s,<point>_x,_y,_z...``).
 
     Any subset of the 19 points is accepted; columns that are not ``<point>_<x|y|z>`` of a known
     point (e.g. ``source_time_s``) are ignored. ``nan`` or empty cells mark missing values. The up
-    axis comes from ``run.json`` beside the file unless ``up`` is given; without either it is an
-    error, because guessing it would silently swap walking and vertical motion.
+    axis is ``up``, else ``run.json``'s ``up_axis``, else the body's (:mod:`.vertical`).
     """
     path = Path(path)
-    try:
-        with path.open(newline="") as f:
-            rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError) as e:
-        raise IPFError(f"cannot read ({e})", path) from None
-    if not rows or "time_s" not in [c.strip() for c in rows[0]]:
+    header, table = read_table(path, "joints CSV")
+    if "time_s" not in header:
         raise IPFError("not a joints CSV: the header has no 'time_s' column", path)
-    header = [c.strip() for c in rows[0]]
-    body = [r for r in rows[1:] if any(c.strip() for c in r)]
-    if not body:
-        raise IPFError("no data rows", path)
-    for i, r in enumerate(body):
-        if len(r) != len(header):
-            raise IPFError(f"row {i + 2} has {len(r)} fields, the header has {len(header)} "
-                           "(truncated or malformed file)", path)
-    try:
-        table = np.array([[float(c) if c.strip() else np.nan for c in r] for r in body])
-    except ValueError as e:
-        raise IPFError(f"non-numeric value ({e})", path) from None
     col = {name: i for i, name in enumerate(header)}
     points = {}
     for name in POINT_NAMES:
@@ -85,14 +88,30 @@ def read_joints_csv(path: str | Path, *, up: str | None = None,
         raise IPFError("no <point>_x,<point>_y,<point>_z columns of known body points", path)
     scale = UNIT_SCALE[units] if units else 1.0
     points = {k: v * scale for k, v in points.items()}
-    meta = _run_json(path)
-    up_axis = up or meta.get("up_axis")
+    meta = _run_json(path) if meta is None else meta
+    up_axis, source = up, "the up option"
+    if up_axis is None and meta.get("up_axis") is not None:
+        up_axis, source = meta["up_axis"], "run.json"
     if up_axis is None:
-        raise IPFError("no run.json with 'up_axis' beside the file: give the up axis with --up",
-                       path)
-    notes = [f"up axis {up_axis} from " + ("the up option" if up else "run.json")]
-    return make_trajectories(table[:, col["time_s"]], points, up_axis=up_axis, source=path,
-                             fps=meta.get("fps"), notes=tuple(notes))
+        up_axis, why = infer_up(points)
+        if up_axis is None:
+            raise IPFError(f"no run.json with 'up_axis' beside the file, and the body does not "
+                           f"show it ({why}): give the up axis with --up", path)
+        source = f"the body ({why})"
+    notes = [f"up axis {up_axis} from {source}"]
+    if cameras:
+        notes.append(f"{cameras} camera{'s' if cameras > 1 else ''} (run.json)")
+    fps = meta.get("fps")
+    fps = float(fps) if isinstance(fps, (int, float)) and not isinstance(fps, bool) \
+        and np.isfinite(fps) and fps > 0 else None
+    # the run's fps is its dataset's; rows may be every k-th frame, so trust the time column
+    # unless it matches
+    time = table[:, col["time_s"]]
+    if (fps and len(time) > 1 and np.all(np.isfinite(time)) and np.median(np.diff(time)) > 0
+            and abs(1.0 / np.median(np.diff(time)) - fps) > 0.01 * fps):
+        fps = None
+    return make_trajectories(time, points, up_axis=up_axis, source=path, fps=fps,
+                             notes=tuple(notes), cameras=cameras)
 
 
 def write_joints_csv(traj: Trajectories, path: str | Path, *, run_json: bool = True) -> Path:
@@ -115,12 +134,23 @@ def write_joints_csv(traj: Trajectories, path: str | Path, *, run_json: bool = T
     return path
 
 
-def _run_json(csv_path: Path) -> dict:
-    """``run.json`` beside a joints CSV, or ``{}`` when there is none."""
-    meta_path = csv_path.with_name("run.json")
+def _run_json(path: Path) -> dict:
+    """``run.json`` beside the input, or ``{}`` when there is none."""
+    meta_path = path.with_name("run.json")
     if not meta_path.is_file():
         return {}
     meta = load_json(meta_path, "run.json")
     if not isinstance(meta, dict):
         raise IPFError("expected a JSON object", meta_path)
     return meta
+
+
+def _camera_count(meta: dict, path: Path) -> int | None:
+    cams = meta.get("cameras")
+    if cams is None:
+        return None
+    n = len(cams) if isinstance(cams, list) else cams
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise IPFError(f"'cameras' must be a list of camera names or a positive count, got "
+                       f"{cams!r}", path.with_name("run.json"))
+    return n

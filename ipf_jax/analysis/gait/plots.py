@@ -3,7 +3,9 @@
 ``displacement.png``: longitudinal displacement of both ankles along the walking direction against
 time (right plain, left dotted, as in figure 8), heel strikes and toe-offs marked on the curves.
 ``angles.png``: sagittal hip, knee (and ankle) angles over the gait cycle, each stride thin and
-the mean thick, left and right in their own colours.
+the mean thick, left and right in their own colours. ``variability.png``: what the fall-risk
+measures summarise, stride by stride: stride time, step length and step width (when the cameras
+measure it) against time, left and right, with the mean and +-1 SD band and the CV in the title.
 
 Figures are drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas, so no global
 pyplot state or display is involved.
@@ -77,6 +79,42 @@ def plot_angles(result, path: str | Path) -> Path | None:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     ax.set_xlabel("gait cycle (% from heel strike)")
+    fig.tight_layout()
+    fig.savefig(path)
+    return Path(path)
+
+
+def plot_variability(result, path: str | Path) -> Path | None:
+    """Stride times, step lengths and step widths over time with mean +- SD; None if no rows."""
+    panels = [("stride_time_s", "stride time (s)", result.strides),
+              ("step_length_m", "step length (m)", result.steps)]
+    if "step_width_m" not in result.unobservable:
+        panels.append(("step_width_m", "step width (m)", result.steps))
+    panels = [p for p in panels if any(np.isfinite(getattr(r, p[0])) for r in p[2])]
+    if not panels:
+        return None
+    fig = Figure(figsize=(7, 2.4 * len(panels)), dpi=100)
+    FigureCanvasAgg(fig)
+    for k, (field, label, rows) in enumerate(panels):
+        ax = fig.add_subplot(len(panels), 1, k + 1)
+        values = np.array([getattr(r, field) for r in rows], dtype=float)
+        ok = np.isfinite(values)
+        mean, sd = values[ok].mean(), values[ok].std(ddof=1) if ok.sum() > 1 else 0.0
+        ax.axhspan(mean - sd, mean + sd, color="0.85")
+        ax.axhline(mean, color="0.4", lw=1)
+        for side in SIDES:
+            pick = [(r.end_s, getattr(r, field)) for r in rows
+                    if r.side == side and np.isfinite(getattr(r, field))]
+            if pick:
+                t, v = zip(*pick)
+                ax.plot(t, v, "o" + STYLES[side], color=COLOURS[side], label=side)
+        cv = f", CV {100 * sd / abs(mean):.1f} %" if ok.sum() > 1 and mean else ""
+        ax.set_title(f"{label}: mean {mean:.3f}, SD {sd:.3f}{cv} (n={int(ok.sum())})",
+                     fontsize=9)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    ax.set_xlabel("time at the end of the step / stride (s)")
     fig.tight_layout()
     fig.savefig(path)
     return Path(path)

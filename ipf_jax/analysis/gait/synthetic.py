@@ -19,7 +19,7 @@ import numpy as np
 
 from ...geometry.world import axis_vector
 from .direction import horizontal_basis
-from .io import Trajectories, make_trajectories
+from .trajectories import Trajectories, make_trajectories
 
 FOOT = 0.20          # heel -> toe, m
 HEEL_AHEAD = 0.25    # heel ahead of the sacrum at strike, as a fraction of the stride length
