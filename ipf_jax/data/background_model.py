@@ -145,46 +145,57 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
     return 1.0 if union == 0 else float(np.logical_and(a, b).sum() / union)
 
 
-class MaskQuality:
-    """Per-camera mask-quality figures gathered frame by frame (see :func:`mask_quality`).
+def frame_quality(masks) -> list[list]:
+    """One frame's mask figures, per camera ``[area_px, foreground_share, blobs, one_blob]``:
+    blobs are 8-connected components of at least 0.1 % of the foreground, ``one_blob`` whether
+    the largest holds at least :data:`DOMINANT` of it."""
+    out = []
+    for m in masks:
+        m = np.asarray(m, bool)
+        area = int(m.sum())
+        if area == 0:
+            out.append([0, 0.0, 0, False])
+            continue
+        _, _, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
+        areas = stats[1:, cv2.CC_STAT_AREA]
+        out.append([area, round(area / m.size, 6), int((areas >= 0.001 * area).sum()),
+                    bool(areas.max() >= DOMINANT * area)])
+    return out
 
+
+def quality_summary(frames: list[list[list]], names=None) -> list[dict]:
+    """Per camera, over frames of :func:`frame_quality` rows: ``frames``, ``empty_share``,
+    ``one_blob_share`` (over non-empty frames), ``median_foreground``, ``median_blobs``."""
+    require(bool(frames) and bool(frames[0]), "no masks were added")
+    out = []
+    for k in range(len(frames[0])):
+        rows = [f[k] for f in frames]
+        filled = [r for r in rows if r[0] > 0]
+        fig = {"frames": len(rows), "empty_share": round(1 - len(filled) / len(rows), 4),
+               "one_blob_share": round(sum(r[3] for r in filled) / len(filled), 4) if filled else 0.0,
+               "median_foreground": round(float(np.median([r[1] for r in rows])), 5),
+               "median_blobs": float(np.median([r[2] for r in rows]))}
+        out.append({"camera": names[k], **fig} if names else fig)
+    return out
+
+
+class MaskQuality:
+    """Per-camera mask-quality figures gathered frame by frame (see :func:`mask_quality`):
     ``add(masks)`` takes one frame's masks, one (H, W) bool array per camera; ``summary(names)``
-    returns one dict per camera. The tracker can feed it the masks it reads anyway and write the
-    summary to run.json (``mask_quality``).
-    """
+    returns one dict per camera (:func:`quality_summary`)."""
 
     def __init__(self):
-        self._rows: list[list[tuple[int, float, int, bool]]] = []
+        self._frames: list[list[list]] = []
 
     def add(self, masks) -> None:
         masks = list(masks)
-        if not self._rows:
-            self._rows = [[] for _ in masks]
-        require(len(masks) == len(self._rows), f"{len(masks)} masks for {len(self._rows)} cameras")
-        for rows, m in zip(self._rows, masks):
-            m = np.asarray(m, bool)
-            area = int(m.sum())
-            if area == 0:
-                rows.append((0, 0.0, 0, False))
-                continue
-            _, _, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
-            areas = stats[1:, cv2.CC_STAT_AREA]
-            rows.append((area, area / m.size, int((areas >= 0.001 * area).sum()),
-                         bool(areas.max() >= DOMINANT * area)))
+        if self._frames:
+            require(len(masks) == len(self._frames[0]),
+                    f"{len(masks)} masks for {len(self._frames[0])} cameras")
+        self._frames.append(frame_quality(masks))
 
     def summary(self, names=None) -> list[dict]:
-        require(bool(self._rows) and bool(self._rows[0]), "no masks were added")
-        out = []
-        for k, rows in enumerate(self._rows):
-            total = len(rows)
-            filled = [r for r in rows if r[0] > 0]
-            fig = {"frames": total, "empty_share": round(1 - len(filled) / total, 4),
-                   "one_blob_share": round(sum(r[3] for r in filled) / len(filled), 4)
-                   if filled else 0.0,
-                   "median_foreground": round(float(np.median([r[1] for r in rows])), 5),
-                   "median_blobs": float(np.median([r[2] for r in rows]))}
-            out.append({"camera": names[k], **fig} if names else fig)
-        return out
+        return quality_summary(self._frames, names)
 
 
 def mask_quality(masks) -> dict:
@@ -198,5 +209,5 @@ def mask_quality(masks) -> dict:
     acc = MaskQuality()
     for m in masks:
         acc.add([m])
-    require(bool(acc._rows), "mask_quality needs at least one mask")
+    require(bool(acc._frames), "mask_quality needs at least one mask")
     return acc.summary()[0]

@@ -36,6 +36,7 @@ from ..body.limits import Limits, limits_to_json, load_limits
 from ..body.model import NUM_DOF, NUM_POINTS
 from ..body.shape import BodyShape, default_shape, load_shape
 from ..data import checkpoint
+from ..data.background_model import frame_quality, quality_summary
 from ..data.dataset import Dataset
 from ..data.runfiles import (
     JOINT_COLUMNS,
@@ -78,11 +79,13 @@ VIEW_MARGIN = 0.5  # of the image size: how far outside its image a camera may p
 
 class Seen(NamedTuple):
     """One frame as the cameras saw it: ``obs`` for the scorer, ``masks`` (C of (H, W) bool) at
-    scoring resolution, whether anyone is there (a person-sized blob in some camera)."""
+    scoring resolution, whether anyone is there (a person-sized blob in some camera), and the
+    masks' quality figures (:func:`ipf_jax.data.background_model.frame_quality`)."""
 
     obs: Observation
     masks: list
     person: bool
+    quality: list
 
 
 class FrameView(NamedTuple):
@@ -207,7 +210,7 @@ class Tracker:
         obs = make_observation(small)
         person = bool(silhouette_rays([m for m, a in zip(small, obs.active) if a],
                                       [c for c, a in zip(self.cameras, obs.active) if a]))
-        return Seen(obs, small, person)
+        return Seen(obs, small, person, frame_quality(small))
 
     def measure(self, obs: Observation, shape: BodyShape | None = None):
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
@@ -297,7 +300,8 @@ class Tracker:
         """One frame: place, initialise or step (select, predict, measure), estimate, check."""
         time_s = frame / self.fps
         info = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": [
-            self.dataset.cameras[i].name for i in range(len(seen.masks)) if not seen.obs.active[i]]}
+            self.dataset.cameras[i].name for i in range(len(seen.masks)) if not seen.obs.active[i]],
+            "mask_quality": seen.quality}
         if not seen.person:
             info.update(status="missing", weight=None, confidence=None, evaluations=0)
             return state, FrameRecord(frame, time_s, np.full(NUM_DOF, np.nan),
@@ -393,6 +397,9 @@ class Tracker:
             "height_m": shape.height_m, "shape": shape.to_json(),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
                        "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
+            "mask_quality": quality_summary([r["mask_quality"] for r in per_frame],
+                                            [c.name for c in self.dataset.cameras])
+            if per_frame and all("mask_quality" in r for r in per_frame) else None,
             "evaluations_per_frame": f.evaluations_per_frame,
             "init_evaluations": state.init_evaluations,
             "reinitialisations": list(state.reinits),
