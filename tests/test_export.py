@@ -311,3 +311,32 @@ def test_cli_errors_are_one_line(run_dir, tmp_path, capsys):
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 3 and all(line.startswith("error: ") for line in lines)
     assert "x.foo" in lines[0] and "none" in lines[1] and "run.json" in lines[2]
+
+
+def test_smoothed_joints_are_the_gait_filter_of_the_raw_ones_and_raw_is_kept(tmp_path):
+    from ipf_jax.analysis.export.smoothed import NAME, smooth_joints, write_smoothed
+    from ipf_jax.analysis.gait.filtering import lowpass
+    from ipf_jax.data.runfiles import read_joints_csv
+    from ipf_jax.geometry.posing import gait_pose
+
+    rng = np.random.default_rng(3)
+    poses = np.stack([gait_pose(20 * np.sin(t / 3), -20 * np.sin(t / 3), 10, 10) for t in range(30)])
+    poses[:, 0] = np.linspace(0, 1.5, 30) + rng.normal(0, 0.01, 30)  # jitter to remove
+    poses[12] = np.nan  # a missing frame stays missing
+    run_dir = write_run_dir(tmp_path / "run", poses, fps=20.0)
+    raw_before = (run_dir / "joints.csv").read_bytes()
+    path = write_smoothed(run_dir)
+    assert path.name == NAME and (run_dir / "joints.csv").read_bytes() == raw_before
+    smooth = read_joints_csv(path).points
+    raw = read_run(run_dir)
+    expected = lowpass(raw.joints, 20.0, 5.0)
+    assert np.allclose(smooth, expected, atol=1e-6, equal_nan=True)
+    assert np.isnan(smooth[12]).all() and np.isfinite(smooth[:12]).all()
+    jitter = lambda j: np.abs(np.diff(j[:12, 0, 0], 2)).mean()  # noqa: E731
+    assert jitter(smooth) < 0.5 * jitter(raw.joints)
+    assert smooth_joints(raw)[1] == 5.0  # the cut-off used at 20 Hz
+    out = tmp_path / "s.csv"
+    assert main(["export", str(run_dir), "--format", "csv", "--out", str(out), "--smooth"]) == 0
+    assert np.allclose(read_joints_csv(out).points, expected, atol=1e-6, equal_nan=True)
+    assert main(["export", str(run_dir), "--format", "bvh", "--out", str(tmp_path / "b.bvh"),
+                 "--smooth"]) == 2

@@ -45,6 +45,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                "for c3d and csv")
     add_common(p, "units", choices=tuple(UNIT_SCALE),
                help="length unit; default: mm for trc and c3d, m for bvh and csv")
+    add_common(p, "smooth", help="export the joints low-passed by the gait analysis' zero-lag "
+               "filter (5 Hz, at most fps/4; trc, c3d, csv); the run's files stay raw")
     p.set_defaults(func=run)
     return p
 
@@ -59,6 +61,13 @@ def run(args: argparse.Namespace) -> int:
                            f"({', '.join(EXPORTERS)})", out)
         export, up, units = EXPORTERS[fmt]
         run_data = read_run(args.run_dir)
+        if args.smooth:
+            if fmt == "bvh":
+                raise IPFError("--smooth applies to the joints (trc, c3d, csv); bvh is written from "
+                               "the poses", out)
+            from ..analysis.export.smoothed import smooth_joints
+
+            run_data = run_data._replace(joints=smooth_joints(run_data)[0])
         export(run_data, out, up=args.up_axis or up, units=args.units or units)
         extra = []
         if fmt == "trc":  # OpenSim's marker set and IK setup for it (docs/export.md)

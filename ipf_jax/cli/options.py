@@ -30,6 +30,8 @@ COMMON = {
     "camera": ("--camera", {"help": "one camera, by name or 1-based number"}),
     "masks": ("--masks", {"action": "store_true", "help": "work on the silhouette masks"}),
     "size": ("--size", {"help": "image size"}),
+    "smooth": ("--smooth", {"action": "store_true", "help": "also the joints low-passed by the gait "
+                            "analysis' zero-lag filter (5 Hz, at most fps/4); raw joints kept"}),
 }
 
 

@@ -25,6 +25,8 @@ def add_parser(sub) -> None:
                    "(same settings and data: the files come out byte-identical)")
     p.add_argument("--overlay", action="store_true", help="also save overlay PNGs of the fitted "
                    "model in --out/overlay")
+    add_common(p, "smooth", help="also write joints_smoothed.csv: the joints low-passed by the gait "
+               "analysis' zero-lag filter (5 Hz, at most fps/4); joints.csv stays raw")
     add_common(p, "quiet")
     p.set_defaults(func=run)
 
@@ -42,9 +44,14 @@ def run(args) -> int:
     res = track(ds, args.out, settings, frames=frames, resume=args.resume, progress=not args.quiet,
                 frame_hook=overlay_writer(Path(args.out) / "overlay") if args.overlay else None)
     run = res.run
+    written = ["joints.csv", "poses.csv", "run.json"]
+    if args.smooth:
+        from ..analysis.export.smoothed import write_smoothed
+
+        written.append(write_smoothed(args.out).name)
     print(f"tracked {run['frames']['done']} frames ({run['frames']['missing']} missing) of {ds.name} "
           f"with {run['filter']} ({run['evaluations_per_frame']} evaluations/frame), "
           f"{run['seconds']['per_tracked_frame_mean']} s/frame; up axis {run['up_axis']}, "
           f"height {run['height_m']:.2f} m; re-initialised at {run['reinitialisations'] or 'no frame'}")
-    print(f"wrote {Path(args.out) / 'joints.csv'}, poses.csv, run.json")
+    print(f"wrote {', '.join(written)} to {args.out}")
     return 0
