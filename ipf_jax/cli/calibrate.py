@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from ..errors import IPFError, require
@@ -72,19 +71,15 @@ def calibrate(args) -> tuple[dict, list[str]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        doc, notes = calibrate(args)
-        out = Path(args.out)
-        tmp = out.with_name(out.name + ".tmp")
-        try:
-            tmp.write_text(json.dumps(doc, indent=1) + "\n")
-            tmp.replace(out)
-        except OSError as e:
-            tmp.unlink(missing_ok=True)
-            raise IPFError(f"cannot write ({e.strerror or e})", out) from None
-    except IPFError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    doc, notes = calibrate(args)
+    out = Path(args.out)
+    tmp = out.with_name(out.name + ".tmp")
+    try:  # whole or not at all: a refused fit above wrote nothing
+        tmp.write_text(json.dumps(doc, indent=1) + "\n")
+        tmp.replace(out)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise IPFError(f"cannot write ({e.strerror or e})", out) from None
     for line in notes:
         print(line)
     print(f"wrote {args.out} ({len(doc['cameras'])} cameras)")

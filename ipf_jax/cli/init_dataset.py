@@ -2,10 +2,8 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from ..errors import IPFError
 from ..geometry.world import AXES
 from .options import add_common, add_option
 
@@ -38,17 +36,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from ..data import init_dataset
 
-    try:
-        names = [n.strip() for n in args.names.split(",")] if args.names else None
-        doc, notes = init_dataset.describe(
-            [Path(p) for p in args.inputs], Path(args.calibration), Path(args.out), names=names,
-            units=args.units, masks=args.masks,
-            backgrounds=[Path(b) for b in args.background] if args.background else None,
-            fps=args.fps, up_axis=args.up_axis)
-        target = init_dataset.write(doc, Path(args.out), force=args.force)
-    except IPFError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    names = [n.strip() for n in args.names.split(",")] if args.names else None
+    doc, notes = init_dataset.describe(
+        [Path(p) for p in args.inputs], Path(args.calibration), Path(args.out), names=names,
+        units=args.units, masks=args.masks,
+        backgrounds=[Path(b) for b in args.background] if args.background else None,
+        fps=args.fps, up_axis=args.up_axis)
+    target = init_dataset.write(doc, Path(args.out), force=args.force)
     for line in notes:
         print(line)
     print(f"wrote {target}: track it with 'ipf-jax track {args.out} --out RUN'")

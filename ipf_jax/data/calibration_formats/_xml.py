@@ -10,7 +10,10 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
+
 from ...errors import IPFError, require
+from ...geometry.camera import Camera, validate_camera
 
 MAX_BYTES = 32 << 20  # 32 MB: a calibration of 1000 cameras is well under 1 MB
 
@@ -103,3 +106,12 @@ def write_text(path: Path, text: str, encoding: str = "utf-8") -> None:
     except OSError as e:
         tmp.unlink(missing_ok=True)
         raise IPFError(f"cannot write ({e.strerror or e})", path) from None
+
+
+def pinhole_camera(fx: float, fy: float, cx: float, cy: float, dist, R: np.ndarray,
+                   centre: np.ndarray, width: int, height: int, name: str, path: Path) -> Camera:
+    """A validated :class:`Camera` (no skew) from focal lengths and principal point (px), OpenCV
+    distortion (k1, k2, p1, p2, k3), world-to-camera rotation ``R`` and the camera centre (m)."""
+    cam = Camera(K=np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]), dist=np.asarray(dist, float),
+                 R=R, T=-R @ centre, width=width, height=height, name=name, source=str(path))
+    return validate_camera(cam, str(path))

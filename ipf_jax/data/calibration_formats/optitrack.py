@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import require
-from ...geometry.camera import Camera, validate_camera
-from ._xml import image_size, load_root, number, write_text
+from ...geometry.camera import Camera
+from ._xml import image_size, load_root, number, pinhole_camera, write_text
 
 WHAT = "OptiTrack .mcal calibration"
 FLIP = np.diag([1.0, -1.0, -1.0])
@@ -66,10 +66,7 @@ def read_optitrack(path: str | Path) -> list[Camera]:
         centre = np.array([number(ext, a, where, path) for a in "XYZ"])
         M = np.array([number(ext, f"OrientMatrix{j}", where, path) for j in range(9)]).reshape(3, 3)
         R = FLIP @ M.T
-        cam = Camera(K=np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]),
-                     dist=np.array([k1, k2, p1, p2, k3]), R=R, T=-R @ centre, width=w, height=h,
-                     name=name, source=str(path))
-        cams.append(validate_camera(cam, str(path)))
+        cams.append(pinhole_camera(fx, fy, cx, cy, [k1, k2, p1, p2, k3], R, centre, w, h, name, path))
     require(bool(cams), f"{WHAT}: no camera with intrinsics and a pose", path)
     return cams
 

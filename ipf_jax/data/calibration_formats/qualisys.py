@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import IPFWarning, require
-from ...geometry.camera import Camera, validate_camera
-from ._xml import image_size, load_root, number, write_text
+from ...geometry.camera import Camera
+from ._xml import image_size, load_root, number, pinhole_camera, write_text
 
 WHAT = "Qualisys .qca.txt calibration"
 SUBPIXEL = 64.0  # QTM's sensor coordinates are in 1/64 pixel
@@ -83,10 +83,7 @@ def read_qualisys(path: str | Path) -> list[Camera]:
             warnings.warn(IPFWarning(f"{path}: camera {name}: viewrotation {view:g} (QTM's display "
                                      f"rotation) is ignored: frames are taken as the sensor's "
                                      f"{w}x{h} window"), stacklevel=2)
-        cam = Camera(K=np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]),
-                     dist=np.array([k1, k2, p1, p2, k3]), R=R, T=-R @ centre, width=w, height=h,
-                     name=name, source=str(path))
-        cams.append(validate_camera(cam, str(path)))
+        cams.append(pinhole_camera(fx, fy, cx, cy, [k1, k2, p1, p2, k3], R, centre, w, h, name, path))
     require(bool(cams), f"{WHAT}: no calibrated camera", path)
     return cams
 
