@@ -36,7 +36,7 @@ _API = {
     "weights_from_counts": "ipf_jax.likelihood.scorer", "scoring_cameras": "ipf_jax.likelihood.scorer",
     "make_filter": "ipf_jax.filters.registry",
     # tracking
-    "track": "ipf_jax.tracking.tracker", "TrackSettings": "ipf_jax.tracking.tracker",
+    "track": "ipf_jax.tracking.passes", "TrackSettings": "ipf_jax.tracking.tracker",
     "RunResult": "ipf_jax.tracking.tracker", "InitSettings": "ipf_jax.tracking.initialise",
     # analysis and output
     "evaluate_files": "ipf_jax.analysis.evaluation", "analyse_gait": "ipf_jax.analysis.gait",

@@ -165,12 +165,12 @@ def test_failing_cell_is_recorded_and_the_sweep_goes_on(scene, tmp_path, capsys)
 
 
 def test_a_bug_in_a_cell_is_recorded_with_its_traceback(scene, tmp_path, monkeypatch):
-    import ipf_jax.tracking.tracker
+    import ipf_jax.tracking.passes
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("deliberate")
 
-    monkeypatch.setattr(ipf_jax.tracking.tracker, "track", broken)
+    monkeypatch.setattr(ipf_jax.tracking.passes, "track", broken)
     cell = load_config(write_config(scene, '[[filter]]\nname = "sir"\n')).cells[0]
     record = execute(cell.spec, tmp_path / "run")
     assert record["status"] == "failed" and record["result"] is None

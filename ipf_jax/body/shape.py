@@ -1,7 +1,9 @@
 """Subject shape: segment lengths, joint offsets and capsule radii (metres).
 
 A shape file is JSON ``{"height_m": H, "params": {name: metres, ...}}`` with every name of
-:data:`ipf_jax.body.model.SHAPE_PARAM_NAMES`. The default adult (``presets/shape_default.json``) is
+:data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` (other keys, e.g. ``"source"`` or a fit's
+``"fit"`` record, are ignored); each parameter's ratio to the body's standing height must lie
+within the anthropometric bounds of :mod:`ipf_jax.body.proportions`. The default adult (``presets/shape_default.json``) is
 1.75 m tall; :meth:`BodyShape.scaled_to` scales every length and radius uniformly to another height.
 """
 from __future__ import annotations
@@ -13,6 +15,7 @@ import numpy as np
 
 from ..errors import IPFError, load_json, require
 from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
+from .proportions import check_bounds
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
@@ -86,6 +89,7 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     lengths = [SHAPE_INDEX[n] for n in ("thigh", "shank", "trunk", "upper_arm", "forearm", "neck")]
     require(bool(np.all(values[lengths] > 0)), "segment lengths must be positive", path)
     require(0.5 <= height <= 2.6, f"height_m {height} is outside 0.5..2.6 m", path)
+    check_bounds(values, path)  # anthropometric ratios (ipf_jax.body.proportions)
     return BodyShape(values, height)
 
 

@@ -74,7 +74,7 @@ def add_option(p: argparse.ArgumentParser, opt: Option | str, **override) -> Non
         if opt.metavar:
             kw["metavar"] = opt.metavar
     if opt.choices and "metavar" not in kw:  # checked by the table (one error line, not argparse's)
-        kw["metavar"] = "{" + ",".join(opt.choices) + "}"
+        kw["metavar"] = "{" + ",".join(map(str, opt.choices)) + "}"
     kw.update(override)
     p.add_argument(opt.flag, **kw)
 

@@ -34,7 +34,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..data.dataset import open_dataset
     from ..data.frames import select_frames
-    from ..tracking.tracker import track
+    from ..tracking.passes import track
     from ..viz.overlay import overlay_writer
 
     values = check_args(args)
@@ -53,5 +53,9 @@ def run(args) -> int:
           f"with {run['filter']} ({run['evaluations_per_frame']} evaluations/frame), "
           f"{run['seconds']['per_tracked_frame_mean']} s/frame; up axis {run['up_axis']}, "
           f"height {run['height_m']:.2f} m; re-initialised at {run['reinitialisations'] or 'no frame'}")
-    print(f"wrote {', '.join(written)} to {args.out}")
+    fit = run.get("shape_fit")
+    if fit:
+        print(f"shape fitted ({run['shape_source']}): {fit['evaluations']} evaluations, "
+              f"{fit['seconds']:.1f} s (initialisation: {run['init_evaluations']} evaluations)")
+    print(f"wrote {', '.join(written + ['shape.json'])} to {args.out}")
     return 0

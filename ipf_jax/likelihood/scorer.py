@@ -32,6 +32,7 @@ chunks so memory stays bounded, and a chunk is sharded over all local devices.
 """
 from __future__ import annotations
 
+import itertools
 from typing import NamedTuple
 
 import jax
@@ -120,8 +121,12 @@ def project_capsules(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray,
 # -- the compiled stages (B particles; batched here, once) --------------------------------------
 def _geometry_impl(q, shape_values, up, cams, long_side):
     """Stage 1: (B, D) particles -> C arrays (B, S, 15) of capsule records, one per camera, and
-    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max)."""
-    caps = jax.vmap(project_capsules, in_axes=(0, None, None, None))(q, shape_values, up, cams)
+    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max).
+
+    ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
+    shape candidates are data, so scoring another candidate never recompiles)."""
+    shape_axis = 0 if shape_values.ndim == 2 else None
+    caps = jax.vmap(project_capsules, in_axes=(0, shape_axis, None, None))(q, shape_values, up, cams)
     ext = segment_extent(jnp, caps, long_side)  # (B, C, S, 4)
     union = jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
                        ext[..., 3].max(0)], -1)
@@ -238,13 +243,16 @@ class Scorer:
             yield start, block.astype(np.float32)
 
     # -- stage 1 and the window plan -------------------------------------------------------------
-    def geometry(self, particles: np.ndarray):
+    def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None):
         """Stage 1 for every chunk: per-camera capsule records (kept on device) and the (C, S, 4)
-        int64 extent of every capsule over all particles."""
+        int64 extent of every capsule over all particles. ``shapes`` (N, P): a body per particle
+        (default: :attr:`shape` for all)."""
         caps, exts = [], []
-        for _, block in self._chunks(particles):
-            c, ext = _geometry_jit(self._put(block, True), self.shape_values, self.up, self.cams,
-                                   long_side=self.long_side)
+        bodies = (self._chunks(shapes) if shapes is not None
+                  else itertools.repeat((0, self.shape_values)))
+        for (_, block), (_, body) in zip(self._chunks(particles), bodies):
+            c, ext = _geometry_jit(self._put(block, True), self._put(body, body.ndim == 2), self.up,
+                                   self.cams, long_side=self.long_side)
             caps.append(c)
             exts.append(ext)
         ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
@@ -324,16 +332,26 @@ class Scorer:
         return out
 
     # -- scoring ---------------------------------------------------------------------------------
-    def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False) -> np.ndarray:
-        """(N, C, 3) int64 counts (Nc, Ns, Nm) for (N, D) particles."""
+    def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False,
+               shapes: np.ndarray | None = None) -> np.ndarray:
+        """(N, C, 3) int64 counts (Nc, Ns, Nm) for (N, D) particles.
+
+        shapes : optional (N, P) shape values, one body per particle (the shape candidates of
+        :mod:`ipf_jax.tracking.shape_fit`); default: every particle has :attr:`shape`.
+        """
         particles = np.asarray(particles)
         require(particles.ndim == 2 and particles.shape[0] > 0, "particles must be a non-empty (N, D) array")
         if not np.all(np.isfinite(particles)):
             raise IPFError("particles contain NaN or inf")
+        if shapes is not None:
+            shapes = np.asarray(shapes, np.float32)
+            require(shapes.shape == (len(particles), len(self.shape_values)),
+                    f"shapes must be (N, {len(self.shape_values)}) like the particles")
+            require(bool(np.all(np.isfinite(shapes))), "shape values contain NaN or inf")
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        caps, ext = self.geometry(particles)
+        caps, ext = self.geometry(particles, shapes)
         win = self.plan(ext, full=full_roi)
         sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
         pending = []

@@ -73,7 +73,7 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
     from ..analysis.evaluation import evaluate_files, summary_doc, write_outputs
     from ..data.dataset import open_dataset
     from ..data.frames import parse_frames, select_frames
-    from ..tracking.tracker import track
+    from ..tracking.passes import track
     from .spec import track_settings
 
     work_dir = Path(work_dir)

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
 from ..body.limits import PRESETS, load_limits
+from ..body.shape import load_shape
 from ..errors import IPFError, require
 from ..filters import registry
 from ..geometry.world import AXES
@@ -34,6 +35,7 @@ from .settings import (
     TrackSettings,
     init_settings,
 )
+from .shape_fit import ShapeFitSettings
 
 #: filter name -> the option keys it takes (its settings fields; ``particles`` for every one)
 FILTER_OPTIONS = registry.OPTIONS
@@ -76,6 +78,10 @@ def _positive(v):
 
 def _limits(v):
     load_limits(v)  # a missing or bad file is an IPFError naming the file
+
+
+def _shape(v):
+    load_shape(v)  # a missing, damaged or out-of-bounds file is an IPFError naming the file
 
 
 def _range(v):
@@ -124,8 +130,16 @@ OPTIONS: tuple[Option, ...] = (
     # -- the body
     Option("height_m", "--height", "float", None, "the subject's standing height, m (default: "
            "searched at initialisation)", check=_within(0.5, 2.6, " m"), metavar="M"),
-    Option("shape_file", "--shape", "path", None, "the subject's shape file, JSON (default: the "
-           "template adult scaled by --height)", metavar="FILE"),
+    Option("shape_file", "--shape", "path", None, "the subject's shape file, e.g. a calibration "
+           "run's shape.json: fixes the body (no shape search; --height must agree with it within "
+           "1 cm) (default: the template adult, its height and proportions searched)",
+           check=_shape, metavar="FILE"),
+    Option("shape_frames", "--shape-frames", "int", 0, "fit the subject's proportions with the poses "
+           "of K frames spread over the recording before tracking (0, the default: the template's "
+           "proportions, searched on the first frame; docs/shape_fit.md)", check=_at_least(0),
+           metavar="K"),
+    Option("passes", "--passes", "int", 1, "2: track, re-fit the shape on the tracked frames, "
+           "track again (offline; pass 1's files in OUT/pass1) (default 1)", choices=(1, 2)),
     Option("limits", "--limits", "limits", "default", "DOF limits: a preset (" + ", ".join(PRESETS)
            + ") or a JSON file (default: default)", check=_limits, metavar="NAME|FILE"),
     Option("floor_range", "--floor-range", "range", None, "floor contact (off by default): keep the "
@@ -172,7 +186,7 @@ def check_value(key: str, value, where: str, path=None) -> None:
     try:
         if opt.choices and value not in opt.choices:
             raise IPFError(f"unknown {key.replace('_', ' ')} {value!r} (choose "
-                           f"{', '.join(opt.choices)})")
+                           f"{', '.join(map(str, opt.choices))})")
         if opt.check is not None:
             opt.check(value)
     except IPFError as e:
@@ -201,6 +215,15 @@ def check_values(values: dict, *, name: Callable[[str], str] = lambda k: BY_KEY[
         if value is not None:
             check_value(key, value, name(key), path)
     filt, track, _ = split(values)
+    if track.get("shape_file") and track.get("height_m") is not None:
+        fixed = load_shape(track["shape_file"]).height_m
+        if abs(track["height_m"] - fixed) > 0.01:
+            raise IPFError(f"{name('height_m')} {track['height_m']} disagrees with the shape file's "
+                           f"height_m {fixed:.3f} by more than 1 cm (a shape file fixes the body: "
+                           "drop the height or fit a new shape)", track["shape_file"])
+    if track.get("passes") == 2 and track.get("shape_file"):
+        raise IPFError("--passes 2 re-fits the shape: it cannot be used with a fixed shape",
+                       f"{name('passes')} 2 {name('shape_file')} {track['shape_file']}")
     fps = track.get("fps") or DEFAULT_FPS
     try:
         registry.resolve(track.get("filter", "ipf"), filt, fps, budget=track.get("budget"))
@@ -231,7 +254,9 @@ def settings_from(values: dict, *, init_pose=None) -> TrackSettings:
     if "floor_range" in track:
         track["floor_range"] = tuple(track["floor_range"])
     init = init_settings(track.pop("init_budget", "default"))
-    return TrackSettings(filter_options=filt, init=init, init_pose=init_pose, **track)
+    shape_fit = ShapeFitSettings(frames=track.pop("shape_frames", 0))
+    return TrackSettings(filter_options=filt, init=init, init_pose=init_pose, shape_fit=shape_fit,
+                         **track)
 
 
 def settings_doc(settings: TrackSettings) -> dict:
@@ -242,6 +267,8 @@ def settings_doc(settings: TrackSettings) -> dict:
         if key == "init_budget":
             doc[key] = next((n for n in INIT_BUDGETS if init_settings(n) == settings.init), "custom")
             doc["init"] = settings.init._asdict()
+        elif key == "shape_frames":
+            doc[key] = settings.shape_fit.frames
         else:
             value = getattr(settings, key)
             doc[key] = list(value) if isinstance(value, tuple) else value

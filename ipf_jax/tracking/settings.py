@@ -11,6 +11,7 @@ from typing import Mapping, NamedTuple
 import numpy as np
 
 from .initialise import InitSettings
+from .shape_fit import ShapeFitSettings
 
 DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
 DEFAULT_FPS = 20.0  # the paper's rate
@@ -51,3 +52,5 @@ class TrackSettings(NamedTuple):
     init_pose: np.ndarray | None = None
     origin_shift: bool = True  # body origin positioning from the silhouettes (tracking.origin)
     floor_range: tuple[float, float] | None = None  # floor contact (tracking.contact); None = off
+    shape_fit: ShapeFitSettings = ShapeFitSettings(frames=0)  # the subject's proportions (0: none)
+    passes: int = 1  # 2: track, re-fit the shape on the track, track again (tracking.passes)

@@ -38,6 +38,7 @@ class TrackState(NamedTuple):
         camera's rays are cut with.
     init_evaluations : likelihood evaluations spent initialising and recovering.
     reinits : frames where a re-initialisation was tried.  records : run.json's ``per_frame`` so far.
+    shape_fit : the record of the shape calibration at the start (:mod:`.shape_fit`), or None.
     """
 
     next_index: int = 0
@@ -51,6 +52,7 @@ class TrackState(NamedTuple):
     init_evaluations: int = 0
     reinits: tuple[int, ...] = ()
     records: tuple[dict, ...] = ()
+    shape_fit: dict | None = None
 
 
 class FrameRecord(NamedTuple):
@@ -72,7 +74,7 @@ def save(out_dir: Path, state: TrackState, settings_key: str) -> None:
             "per_frame": list(state.records), "reinits": list(state.reinits),
             "init_evaluations": state.init_evaluations, "settings_key": settings_key,
             "anchor": None if state.anchor is None else state.anchor.to_json(),
-            "anchor_height": state.anchor_height}
+            "anchor_height": state.anchor_height, "shape_fit": state.shape_fit}
     arrays = {} if state.filter is None else {"particles": state.filter.particles,
                                               "weights": state.filter.weights}
     checkpoint.save(out_dir, meta, arrays)
@@ -89,7 +91,7 @@ def load(out_dir: Path) -> tuple[TrackState, str]:
             history=tuple(meta["history"]), low_streak=meta["low_streak"],
             anchor=FrameAnchor.from_json(meta["anchor"]), anchor_height=meta["anchor_height"],
             init_evaluations=meta["init_evaluations"], reinits=tuple(meta["reinits"]),
-            records=tuple(meta["per_frame"]))
+            records=tuple(meta["per_frame"]), shape_fit=meta.get("shape_fit"))
         return state, meta["settings_key"]
     except KeyError as e:  # written by another version of ipf-jax
         raise IPFError(f"checkpoint from another ipf-jax version (no {e}): rerun without --resume",

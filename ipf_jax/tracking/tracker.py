@@ -67,7 +67,8 @@ from .contact import FloorContact
 from .initialise import floor_points, initialise
 from .options import settings_doc
 from .origin import FrameAnchor, observe_anchor, root_shift
-from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings
+from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
+from .shape_fit import Scene, calibrate_at_start, shape_doc
 from .state import HISTORY, FrameRecord, TrackState
 
 __all__ = ["DEFAULT_FPS", "DEFAULT_RESOLUTION", "FrameView", "RunResult", "TrackSettings", "Tracker",
@@ -167,6 +168,11 @@ class Tracker:
         self.limits: Limits = load_limits(settings.limits)
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
+        if settings.shape_file is not None and settings.height_m is not None:  # a file fixes the body
+            require(abs(settings.height_m - self.base_shape.height_m) <= 0.01,
+                    f"height {settings.height_m:.3f} m (--height or dataset.json) disagrees with the "
+                    f"shape file's {self.base_shape.height_m:.3f} m by more than 1 cm",
+                    settings.shape_file)
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self._filters: dict[int, Filter] = {}
@@ -242,10 +248,25 @@ class Tracker:
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
             w = self.measure(obs, shape)(q)
             return q, w, shape, 1
+        if shape is None and s.shape_file is not None:  # a shape file fixes the body
+            shape = self.base_shape
         res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
                          [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
                          self.measure(obs), height_m=s.height_m, fixed_shape=shape, settings=s.init)
         return res.particles, res.weights, res.shape, res.evaluations
+
+    def calibrate(self, frame: int, q: np.ndarray, w: np.ndarray, shape: BodyShape):
+        """The subject's proportions fitted with the poses of frames spread over the recording
+        (:func:`ipf_jax.tracking.shape_fit.calibrate_at_start`); returns the first frame's
+        particles, weights, the shape and the fit's record."""
+        s = self.settings
+        scene = Scene(lambda f: tuple(self.observe(f)[:2]), self.frames, self.cameras, self.U,
+                      self.limits, self.scorer, self.frame_key)
+        light = {} if s.init == init_settings() else {"frame_init": s.init}  # --init-budget small
+        q, w, shape, _, doc = calibrate_at_start(scene, frame, q, w, shape, height_m=s.height_m,
+                                                 settings=s.shape_fit, seed=s.seed, **light)
+        self.scorer.set_shape(shape)
+        return q, w, shape, doc
 
     def place(self, state: TrackState, seen: Seen) -> tuple[FrameAnchor, np.ndarray]:
         """Body origin positioning: the frame's silhouette anchor, and the (3,) root shift since
@@ -258,10 +279,14 @@ class Tracker:
 
     def start(self, state: TrackState, frame: int, seen: Seen) -> TrackState:
         """The automatic initialisation (or the given initial pose) on the first frame seen."""
+        s = self.settings
         self.check_view(seen.obs, seen.masks)
         q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None)
+        doc = None
+        if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
+            q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
-                              init_evaluations=state.init_evaluations + n)
+                              init_evaluations=state.init_evaluations + n, shape_fit=doc)
 
     def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray) -> tuple[TrackState, int]:
         """Select, predict, measure: one step of the filter, every particle's root moved first
@@ -348,6 +373,8 @@ class Tracker:
                 state = state._replace(next_index=state.next_index + 1, rows=state.rows + 1,
                                        records=(*state.records, rec.info))
                 bar.set_postfix(w=rec.info.get("weight"), conf=rec.info.get("confidence"))
+                if rec.info["status"] == "init":
+                    write_json_atomic(out_dir / "shape.json", self.shape_doc(state))
                 if state.next_index % self.settings.checkpoint_every == 0 \
                         or state.next_index == len(self.frames):
                     track_state.save(out_dir, state, key)
@@ -365,6 +392,7 @@ class Tracker:
             joints_csv.close()
             poses_csv.close()
         doc = self.run_doc(state, time.perf_counter() - t_start)
+        write_json_atomic(out_dir / "shape.json", self.shape_doc(state))
         write_json_atomic(out_dir / "run.json", doc)
         poses = read_table(out_dir / "poses.csv", "poses file")[1][:, 2:]
         return RunResult(out_dir, self.frames, poses, read_joints_csv(out_dir / "joints.csv").points, doc)
@@ -377,6 +405,15 @@ class Tracker:
             raise IPFError("cannot resume: the run in this folder used other settings or data", out_dir)
         checkpoint.remove_stale(out_dir)
         return state
+
+    def shape_doc(self, state: TrackState) -> dict:
+        """``shape.json``: the run's body in the shape-file format, where it came from, the fit."""
+        s = self.settings
+        source = (f"shape file {s.shape_file}" if s.shape_file else
+                  "fitted (ipf_jax.tracking.shape_fit)" if state.shape_fit else
+                  "template, proportions searched on the first frame" if s.init_pose is None
+                  else "template scaled by height")
+        return shape_doc(state.shape or self.base_shape, source, state.shape_fit)
 
     def run_doc(self, state: TrackState, seconds: float) -> dict:
         """``run.json`` (see docs/formats.md)."""
@@ -394,7 +431,9 @@ class Tracker:
                          "scoring_sizes": [[c.width, c.height] for c in self.cameras]},
             "limits": limits_to_json(self.limits),
             "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
-            "height_m": shape.height_m, "shape": shape.to_json(),
+            "height_m": shape.height_m, "shape": shape.to_json(), "shape_file": "shape.json",
+            "shape_source": self.shape_doc(state)["source"], "shape_fit": state.shape_fit,
+            "shape_fit_evaluations": (state.shape_fit or {}).get("evaluations", 0),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
                        "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
             "mask_quality": quality_summary([r["mask_quality"] for r in per_frame],

@@ -1,0 +1,472 @@
+"""Shape calibration: the subject's segment lengths and girths, fitted with the poses of K frames.
+
+One template scaled by height cannot fit a person whose legs are long for the torso, and the
+feet-on-the-floor placement then puts every hip too high or too low. This module fits the
+subject's proportions (the 13 symmetric groups of :mod:`ipf_jax.body.proportions`: 8 lengths,
+the ankle height, 2 breadths, 3 girths, inside anthropometric bounds, hip joint centres placed by the Harrington
+rule) jointly with the poses of ``K`` frames spread over the recording, on the exact silhouette
+likelihood, without derivatives:
+
+    theta = 0 (the reference shape: the template at the height found on the first frame)
+    for round r = 1..R:
+        poses: compass search (ipf_jax.tracking.initialise.pattern_search) of every frame's best poses
+               with the current shape
+        shape: CMA-ES over theta (group log-factors), G generations of lambda candidates;
+               a candidate's score is the mean over the K frames of the best of the frame's
+               kept poses, each moved along the up axis so that its lowest point touches the
+               floor with that candidate's body (longer legs lift the pelvis)
+    final compass search of every frame's poses with the best shape
+
+Different poses separate the lengths (a bent knee splits thigh and shank, a swinging arm
+upper arm and forearm). Every candidate x pose of a frame is scored in **one** call of the
+compiled likelihood with a body per particle (:meth:`ipf_jax.likelihood.scorer.Scorer.counts`
+``shapes=``): the shape values are data of the compiled geometry stage, so no candidate
+recompiles anything. A given standing height (``dataset.json``'s ``height_m`` or ``--height``)
+constrains the fit: every candidate is scaled uniformly to it.
+
+Two entry points:
+
+* :func:`calibrate_at_start` (pass 1): the first frame is initialised as before (heights grid);
+  ``K - 1`` more frames spread over the recording are initialised with that shape held (a lighter
+  search, :data:`FRAME_INIT`), then the joint fit runs; the tracker starts from the fitted first
+  frame.
+* :func:`refit_from_track` (pass 2, offline): the poses of a finished track seed the fit on
+  ``K`` tracked frames; the recording is then tracked again with that shape held
+  (:func:`track_two_pass`).
+
+What one camera can recover: lengths along the image plane and the body's outline (girths seen
+edge on, the leg length from the hip height over the floor); not the depth of the body or
+breadths seen end on (pelvis and shoulder breadth when the person walks towards or away from
+the camera, or side-on: then only one of breadth and depth is seen), and lengths that are
+foreshortened in every chosen frame. See docs/shape_fit.md.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..body.limits import Limits
+from ..body.model import NUM_DOF, SEGMENTS, SHAPE_INDEX
+from ..body.proportions import (
+    BOUNDS,
+    GROUP_NAMES,
+    GROUPS,
+    NUM_GROUPS,
+    PRIOR_FACTORS,
+    build,
+    group_factors,
+    stature,
+)
+from ..body.shape import BodyShape
+from ..errors import IPFError, require
+from ..filters.selection import top_distinct
+from ..geometry.kinematics import forward_kinematics
+from ..likelihood.scorer import Observation, Scorer, weights_from_counts
+from .initialise import InitSettings, initialise, pattern_search
+
+
+class ShapeFitSettings(NamedTuple):
+    """frames : K, frames spread over the recording (first one included); 0 = no shape fit.
+
+    rounds : pose / shape alternations.  generations, population : CMA-ES per round.
+    sigma : first CMA-ES step, natural-log units (0.04 = 4 %).  pose_keep : distinct poses
+    per frame carried into the shape scores.  pose_sweeps : compass sweeps per pose search.
+    refit_frames : K of the second pass (frames of the finished track).
+    prior : weight of a weak pull towards the prior proportions (the template's, shod ankles:
+    :data:`ipf_jax.body.proportions.PRIOR_FACTORS`), as a fraction of the starting score per
+    group at its bound (a group the views cannot see stays there rather than drifting with the
+    search's noise).  split_prior : the same for the split of a limb between its two segments
+    (thigh / shank, upper arm / forearm), which silhouettes barely see: the limb's length is
+    fitted, its split kept near the template's unless the poses show otherwise.
+    """
+
+    frames: int = 6
+    rounds: int = 4
+    generations: int = 10
+    population: int = 16
+    sigma: float = 0.05
+    pose_keep: int = 4
+    pose_sweeps: int = 3
+    refit_frames: int = 10
+    prior: float = 1e-3
+    split_prior: float = 1e-2
+
+
+#: The lighter initialisation of the other K - 1 frames of pass 1 (shape held, so one height).
+FRAME_INIT = InitSettings(headings=16, position_steps=1, modes=2, keep=12, refine_rounds=2,
+                          refine_particles=192, pattern_keep=4, pattern_sweeps=4)
+
+
+# -- scoring with a body per particle ---------------------------------------------------------------
+ShapeMeasure = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def shape_measure(scorer: Scorer, obs: Observation) -> ShapeMeasure:
+    """``fn(particles (N, D), shapes (N, P)) -> (N,)`` weights on one frame, a body per particle."""
+    def fn(particles: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+        return weights_from_counts(scorer.counts(particles, obs, shapes=shapes), obs.active)[0]
+    return fn
+
+
+def _as_body_measure(fn: ShapeMeasure):
+    """The ``measure(particles, BodyShape)`` signature of :mod:`ipf_jax.tracking.initialise`."""
+    def measure(particles: np.ndarray, shape: BodyShape) -> np.ndarray:
+        return fn(particles, np.broadcast_to(np.asarray(shape.values, np.float32),
+                                             (len(particles), len(shape.values))))
+    return measure
+
+
+_R_IDX = np.array([[SHAPE_INDEX[s.r_a], SHAPE_INDEX[s.r_b]] for s in SEGMENTS])
+
+
+def lowest_heights(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(N, D) poses, (N, P) bodies -> (N,) height over the floor of each lowest capsule point."""
+    q = np.asarray(q, np.float64)
+    v = np.asarray(values, np.float64)
+    pose = forward_kinematics(q, v.T[..., None], np.asarray(U, np.float64), xp=np)
+    up = np.asarray(U, np.float64)[:, 2]
+    r = v[:, _R_IDX]  # (N, S, 2)
+    return np.minimum((pose.seg_a @ up - r[..., 0]).min(-1), (pose.seg_b @ up - r[..., 1]).min(-1))
+
+
+def place_on_floor_many(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(N, D) poses moved along up so that each one's lowest point (with its body) is on the floor."""
+    q = np.array(q, np.float64)
+    q[:, :3] -= np.outer(lowest_heights(q, values, U), np.asarray(U, np.float64)[:, 2])
+    return q
+
+
+# -- CMA-ES (Hansen 2016, "The CMA Evolution Strategy: a tutorial", default parameters) ---------
+class CMAES:
+    """Minimal CMA-ES minimiser: ``ask() -> (lambda, n)``, ``tell(X, f)``."""
+
+    def __init__(self, x0: np.ndarray, sigma: float, popsize: int, rng: np.random.Generator):
+        n = len(x0)
+        self.n, self.lam, self.mu = n, int(popsize), int(popsize) // 2
+        w = np.log(self.mu + 0.5) - np.log(np.arange(1, self.mu + 1))
+        self.w = w / w.sum()
+        self.mueff = 1.0 / np.sum(self.w ** 2)
+        self.cc = (4 + self.mueff / n) / (n + 4 + 2 * self.mueff / n)
+        self.cs = (self.mueff + 2) / (n + self.mueff + 5)
+        self.c1 = 2 / ((n + 1.3) ** 2 + self.mueff)
+        self.cmu = min(1 - self.c1, 2 * (self.mueff - 2 + 1 / self.mueff) / ((n + 2) ** 2 + self.mueff))
+        self.damps = 1 + 2 * max(0.0, np.sqrt((self.mueff - 1) / (n + 1)) - 1) + self.cs
+        self.chi_n = np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n ** 2))
+        self.mean = np.array(x0, np.float64)
+        self.sigma = float(sigma)
+        self.C = np.eye(n)
+        self.B, self.D = np.eye(n), np.ones(n)
+        self.pc, self.ps = np.zeros(n), np.zeros(n)
+        self.gen = 0
+        self.rng = rng
+
+    def ask(self) -> np.ndarray:
+        z = self.rng.standard_normal((self.lam, self.n))
+        return self.mean + self.sigma * (z * self.D) @ self.B.T
+
+    def tell(self, X: np.ndarray, f: np.ndarray) -> None:
+        order = np.argsort(f, kind="stable")
+        y = (X[order[:self.mu]] - self.mean) / self.sigma
+        ymean = self.w @ y
+        self.mean = self.mean + self.sigma * ymean
+        inv_sqrt = self.B @ np.diag(1 / self.D) @ self.B.T
+        self.ps = (1 - self.cs) * self.ps + np.sqrt(self.cs * (2 - self.cs) * self.mueff) * inv_sqrt @ ymean
+        self.gen += 1
+        hsig = (np.linalg.norm(self.ps) / np.sqrt(1 - (1 - self.cs) ** (2 * self.gen)) / self.chi_n
+                < 1.4 + 2 / (self.n + 1))
+        self.pc = (1 - self.cc) * self.pc + hsig * np.sqrt(self.cc * (2 - self.cc) * self.mueff) * ymean
+        self.C = ((1 - self.c1 - self.cmu) * self.C
+                  + self.c1 * (np.outer(self.pc, self.pc) + (1 - hsig) * self.cc * (2 - self.cc) * self.C)
+                  + self.cmu * (y.T * self.w) @ y)
+        self.sigma *= np.exp((self.cs / self.damps) * (np.linalg.norm(self.ps) / self.chi_n - 1))
+        d2, self.B = np.linalg.eigh((self.C + self.C.T) / 2)
+        self.D = np.sqrt(np.maximum(d2, 1e-20))
+
+
+#: Limbs whose length silhouettes see better than the split between their two segments.
+SPLITS = (("thigh", "shank"), ("upper_arm", "forearm"))
+
+
+# -- the joint fit --------------------------------------------------------------------------------
+class FramePoses(NamedTuple):
+    """One frame of the fit: its number, scorer and the poses found so far (best first)."""
+
+    frame: int
+    measure: ShapeMeasure
+    particles: np.ndarray  # (M, D)
+    weights: np.ndarray  # (M,)
+
+
+class ShapeFitResult(NamedTuple):
+    shape: BodyShape
+    frames: list[FramePoses]  # the poses with the fitted shape
+    evaluations: int
+    seconds: float
+    doc: dict  # for run.json and shape.json (see docs/formats.md)
+
+
+def _measure_params(values: np.ndarray) -> np.ndarray:
+    """(..., P) -> (..., G): each group's own measure (its first parameter; the pelvis: B)."""
+    return group_factors(values) * stature(values)[..., None]
+
+
+def log_factors(values: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(..., G) group log-factors that :func:`ipf_jax.body.proportions.build` maps ``reference``
+    onto ``values`` with (exact for values that build made)."""
+    return np.log(_measure_params(values) / _measure_params(reference))
+
+
+class _Objective:
+    """The fit's score of candidate bodies over the frames, its prior, and the pose search, with
+    the likelihood evaluations they spend (see :func:`fit_shape`)."""
+
+    def __init__(self, frames, reference: BodyShape, U, limits, height_m, settings):
+        self.frames, self.U, self.limits, self.height_m, self.s = frames, U, limits, height_m, settings
+        self.ref = np.asarray(reference.values, np.float64)
+        self.evaluations = 0
+        # each group's half-width of its bounds in log units: the prior's scale
+        self.half = np.array([np.log((1 + BOUNDS[g.kind][1]) / (1 - BOUNDS[g.kind][0])) / 2
+                              for g in GROUPS])
+        self.centre = np.log([PRIOR_FACTORS.get(n, 1.0) for n in GROUP_NAMES])
+        self.pairs = [(GROUP_NAMES.index(a), GROUP_NAMES.index(b)) for a, b in SPLITS]
+        self.start = 1.0  # the starting score: the prior's unit
+
+    def body(self, theta: np.ndarray) -> np.ndarray:
+        return build(self.ref, theta, self.height_m)
+
+    def penalty(self, vals: np.ndarray) -> np.ndarray:
+        """(L, P) bodies -> (L,) prior penalty in score units."""
+        lf = np.log(group_factors(np.atleast_2d(vals)))
+        p = self.s.prior * np.sum(((lf - self.centre) / self.half) ** 2, -1)
+        for a, b in self.pairs:
+            p = p + self.s.split_prior * ((lf[:, a] - lf[:, b]) / self.half[a]) ** 2
+        return abs(self.start) * p
+
+    def score(self, values: np.ndarray, poses: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """(L, P) bodies -> (L,) mean over frames of each body's best pose; the placed poses."""
+        total = np.zeros(len(values))
+        placed_all = []
+        for fr, q in zip(self.frames, poses):
+            L, M = len(values), len(q)
+            qq = np.repeat(q[None], L, 0).reshape(L * M, NUM_DOF)
+            vv = np.repeat(values, M, 0)
+            placed = self.limits.clip(place_on_floor_many(qq, vv, self.U))
+            w = fr.measure(placed, vv).reshape(L, M)
+            self.evaluations += L * M
+            total += np.where(np.isnan(w), 0.0, w).max(1)
+            placed_all.append(placed.reshape(L, M, NUM_DOF))
+        return total / len(self.frames), placed_all
+
+    def refine_poses(self, values: np.ndarray, current: list[FramePoses]) -> list[FramePoses]:
+        shape = BodyShape(values, float(stature(values)))
+        out = []
+        for fr in current:
+            q, w, n = pattern_search(fr.particles, fr.weights, _as_body_measure(fr.measure), shape,
+                                     self.limits, keep=self.s.pose_keep, sweeps=self.s.pose_sweeps,
+                                     first_step=0.25)
+            self.evaluations += n
+            idx = top_distinct(q, w, self.s.pose_keep)
+            out.append(fr._replace(particles=q[idx], weights=w[idx]))
+        return out
+
+    def starting_point(self) -> tuple[np.ndarray, np.ndarray, list[FramePoses]]:
+        """theta, body and kept poses to start from: the reference with the prior's groups (shod
+        ankles); the scorers' window buckets grown once with the largest body the bounds allow."""
+        theta = np.zeros(NUM_GROUPS)
+        for n, f in PRIOR_FACTORS.items():
+            k = GROUP_NAMES.index(n)
+            theta[k] = np.log(f) - np.log(group_factors(self.ref)[k])
+        values = self.body(theta)
+        big = self.body(np.full(NUM_GROUPS, 0.5))[None]
+        for fr in self.frames:
+            fr.measure(self.limits.clip(place_on_floor_many(fr.particles[:1], big, self.U)), big)
+        current = [fr._replace(particles=fr.particles[idx], weights=fr.weights[idx])
+                   for fr in self.frames for idx in [top_distinct(fr.particles, fr.weights, self.s.pose_keep)]]
+        return log_factors(values, self.ref), values, current
+
+
+def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, limits: Limits, *,
+              height_m: float | None = None, settings: ShapeFitSettings = ShapeFitSettings(),
+              seed: int = 0) -> ShapeFitResult:
+    """Fit the body's group factors and the frames' poses together (module doc).
+
+    frames : K >= 1 frames with their scorers and starting poses (M_k, D).
+    reference : the shape theta = 0 stands for.  height_m : standing height to hold, or None.
+    Returns the fitted shape (``height_m`` = its standing height), the frames' refined poses,
+    the likelihood evaluations and seconds spent, and a record for run.json.
+    """
+    require(len(frames) >= 1, "the shape fit needs at least one frame")
+    t0 = time.perf_counter()
+    s = settings
+    rng = np.random.default_rng(seed)
+    obj = _Objective(frames, reference, U, limits, height_m, settings)
+    theta, values, current = obj.starting_point()
+    obj.start = float(obj.score(values[None], [fr.particles for fr in current])[0][0])
+    history = [round(obj.start, 5)]
+    for r in range(s.rounds):
+        current = obj.refine_poses(values, current)
+        poses = [fr.particles for fr in current]
+        best_score = float(obj.score(values[None], poses)[0][0] - obj.penalty(values)[0])
+        cma = CMAES(theta, s.sigma * 0.7 ** r, s.population, rng)
+        for _ in range(s.generations):
+            vals = obj.body(cma.ask())
+            cand = log_factors(vals, obj.ref)  # repaired into the bounds (and onto the height)
+            f, placed = obj.score(vals, poses)
+            f = f - obj.penalty(vals)
+            cma.tell(cand, -f)
+            i = int(np.argmax(f))
+            if f[i] > best_score:
+                best_score, theta, values = float(f[i]), cand[i], vals[i]
+                # the kept poses move with the body (floor contact)
+                current = [fr._replace(particles=p[i]) for fr, p in zip(current, placed)]
+                poses = [fr.particles for fr in current]
+        history.append(round(best_score, 5))
+    current = obj.refine_poses(values, current)
+    history.append(round(float(obj.score(values[None], [fr.particles for fr in current])[0][0]), 5))
+    seconds = time.perf_counter() - t0
+    doc = {"frames": [int(fr.frame) for fr in frames], "evaluations": int(obj.evaluations),
+           "seconds": round(seconds, 3), "height_m_given": height_m,
+           "reference_height_m": round(float(stature(obj.ref)), 4),
+           "group_factors": {n: round(float(f), 4) for n, f in zip(GROUP_NAMES, group_factors(values))},
+           "score_history": history, "settings": settings._asdict()}
+    return ShapeFitResult(BodyShape(values, float(stature(values))), current, int(obj.evaluations),
+                          seconds, doc)
+
+
+def spread_frames(frames: list[int], k: int) -> list[int]:
+    """``k`` frames spread evenly over ``frames`` (the first and last included when k >= 2)."""
+    if k <= 1 or len(frames) <= 1:
+        return list(frames[:1])
+    idx = np.unique(np.round(np.linspace(0, len(frames) - 1, min(k, len(frames)))).astype(int))
+    return [frames[i] for i in idx]
+
+
+def fit_scorer(scene, shape: BodyShape) -> Scorer:
+    """A scorer of its own for the calibration: shape candidates up to the bounds need larger
+    windows than the tracking does, and window buckets only grow (see :class:`Scorer`)."""
+    s = scene.scorer
+    return Scorer(scene.cameras, shape, scene.U, kernel=s.kernel, chunk=s.chunk)
+
+
+# -- pass 1: at the start of a run ------------------------------------------------------------------
+class Scene(NamedTuple):
+    """What the calibration needs from a tracking run (the tracker builds it).
+
+    observe : frame -> (Observation, masks at scoring resolution).  frames : the run's frames.
+    cameras : scoring cameras.  U : (3, 3) up rotation.  limits : DOF ranges.  scorer : the
+    run's :class:`Scorer`.  key : frame, salt -> JAX key.
+    """
+
+    observe: Callable
+    frames: list
+    cameras: list
+    U: np.ndarray
+    limits: Limits
+    scorer: Scorer
+    key: Callable
+
+
+def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights: np.ndarray,
+                       shape: BodyShape, *, height_m: float | None,
+                       settings: ShapeFitSettings = ShapeFitSettings(), seed: int = 0,
+                       frame_init: InitSettings = FRAME_INIT):
+    """Pass 1: fit the shape on ``settings.frames`` frames spread over the recording.
+
+    ``frame``, ``particles``, ``weights``, ``shape``: the first frame's initialisation;
+    ``frame_init``: the search that initialises the other frames (shape held).
+    Returns (particles, weights, shape, evaluations, doc) for the first frame; ``doc`` records
+    the fit (frames, evaluations, seconds including the other frames' initialisations).
+    """
+    t0 = time.perf_counter()
+    evaluations = 0
+    scorer = fit_scorer(scene, shape)
+    fits = [FramePoses(frame, shape_measure(scorer, scene.observe(frame)[0]), particles, weights)]
+    skipped = []
+    for f in spread_frames(list(scene.frames), settings.frames):
+        if f == frame:
+            continue
+        obs, small = scene.observe(f)
+        active = [i for i in range(len(small)) if obs.active[i]]
+        if not active:
+            skipped.append(int(f))
+            continue
+        fn = shape_measure(scorer, obs)
+        try:
+            res = initialise(scene.key(f, 3), [small[i] for i in active], [scene.cameras[i] for i in active],
+                             scene.U, scene.limits, shape, _as_body_measure(fn), fixed_shape=shape,
+                             settings=frame_init)
+        except IPFError:  # no silhouette of a person on that frame: use the others
+            skipped.append(int(f))
+            continue
+        evaluations += res.evaluations
+        fits.append(FramePoses(f, fn, res.particles, res.weights))
+    init_seconds = time.perf_counter() - t0
+    result = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
+    first = result.frames[0]
+    doc = dict(result.doc, passes=1, frame_init_evaluations=int(evaluations),
+               frame_init_seconds=round(init_seconds, 3), skipped_frames=skipped,
+               evaluations=int(evaluations + result.evaluations),
+               seconds=round(time.perf_counter() - t0, 3))
+    return first.particles, first.weights, result.shape, int(evaluations + result.evaluations), doc
+
+
+# -- pass 2: refit on a finished track, track again -------------------------------------------------
+def refit_from_track(scene: Scene, tracked: dict[int, np.ndarray], shape: BodyShape, *,
+                     height_m: float | None, settings: ShapeFitSettings = ShapeFitSettings(),
+                     seed: int = 0) -> ShapeFitResult:
+    """Fit the shape on ``settings.refit_frames`` frames of a finished track.
+
+    tracked : frame -> (D,) pose of the first pass (tracked frames only).
+    """
+    frames = spread_frames(sorted(tracked), settings.refit_frames)
+    scorer = fit_scorer(scene, shape)
+    fits = []
+    for f in frames:
+        obs, _ = scene.observe(f)
+        fn = shape_measure(scorer, obs)
+        q = scene.limits.clip(np.asarray(tracked[f], np.float64)[None])
+        w = fn(q, np.broadcast_to(np.asarray(shape.values, np.float32), (1, len(shape.values))))
+        fits.append(FramePoses(f, fn, q, w))
+    res = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
+    return res._replace(doc=dict(res.doc, passes=2, evaluations=res.evaluations))
+
+
+def shape_doc(shape: BodyShape, source: str, fit: dict | None = None) -> dict:
+    """The shape-file document (``shape.json``): height, params, where it came from, the fit."""
+    doc = {"height_m": round(float(shape.height_m), 5), "source": source,
+           "params": {k: round(v, 6) for k, v in shape.to_json()["params"].items()},
+           "standing_height_m": round(float(stature(shape.values)), 5),
+           "group_factors": {n: round(float(f), 4) for n, f in zip(GROUP_NAMES, group_factors(shape.values))}}
+    if fit is not None:
+        doc["fit"] = fit
+    return doc
+
+
+def write_shape(path: str | Path, doc: dict) -> None:
+    from ..data.runfiles import write_json_atomic
+
+    write_json_atomic(Path(path), doc)
+
+
+__all__ = [
+    "CMAES",
+    "FRAME_INIT",
+    "GROUPS",
+    "FramePoses",
+    "Scene",
+    "ShapeFitResult",
+    "ShapeFitSettings",
+    "calibrate_at_start",
+    "fit_shape",
+    "lowest_heights",
+    "place_on_floor_many",
+    "refit_from_track",
+    "shape_doc",
+    "shape_measure",
+    "spread_frames",
+    "write_shape",
+]
