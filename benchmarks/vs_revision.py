@@ -1,0 +1,105 @@
+"""Tracking speed of the working tree against another git revision, measured in one run.
+
+    python benchmarks/vs_revision.py --rev REV [--cameras 4] [--frames 12] [--repeats 3]
+                                     [--json FILE] -- TRACK OPTIONS (e.g. --filter apf --budget 20000)
+
+Both trees track the same frames with the same options through ``python -m ipf_jax.cli track``
+(an interface every revision has), alternately (A B A B ...), so drifts of the machine's speed hit
+both; each run's seconds per tracked frame come from its ``run.json``. REV is checked out with
+``git worktree`` into a temporary folder beside the repository's ``.git`` (removed afterwards)
+and run with ``PYTHONPATH`` pointing at it.
+
+The frames: ``sequenceB_2``'s two real frames (4 calibrated cameras, real masks; ``--cameras 1``
+keeps Camera1) written ``--frames`` times alternately into a temporary bodytrack-layout folder,
+started from bodytrack's ``InitialPose.txt`` (no automatic initialisation). The first run of each
+tree compiles (persistent cache) and is not counted. Prints, per repeat and as the median, each
+tree's seconds per frame and the ratio REV / working tree (> 1: the working tree is faster).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+DATA = "parsec_bodytrack/sequenceB_2"
+
+
+def shared_data() -> Path:
+    env = os.environ.get("IPF_JAX_DATA")
+    return Path(env) if env else (REPO.parent / "shared" / "data").resolve()
+
+
+def make_dataset(root: Path, cameras: int, frames: int) -> Path:
+    """A bodytrack-layout folder with sequenceB_2's frames 0, 1, 0, 1, ... (``frames`` of them)."""
+    src = shared_data() / DATA
+    (root / "CALIB").mkdir(parents=True)
+    for k in range(1, cameras + 1):
+        shutil.copy(src / "CALIB" / f"Camera{k}.cal", root / "CALIB" / f"Camera{k}.cal")
+        (root / f"FG{k}").mkdir()
+        for t in range(frames):
+            shutil.copy(src / f"FG{k}" / f"image{t % 2:04d}.bmp", root / f"FG{k}" / f"image{t:04d}.bmp")
+    for name in ("InitialPose.txt", "BodyShapeParameters.txt"):
+        shutil.copy(src / name, root / name)
+    return root
+
+
+def run_track(tree: Path, data: Path, out: Path, extra: list[str]) -> float:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    cmd = [sys.executable, "-m", "ipf_jax.cli", "track", str(data), "--out", str(out), "--quiet",
+           "--init-pose", str(data / "InitialPose.txt"), "--up", "+z", *extra]
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tempfile.gettempdir(),
+                          check=False)
+    if proc.returncode != 0:
+        sys.exit(f"error: {tree}: track failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}")
+    run = json.loads((out / "run.json").read_text())
+    return float(run["seconds"]["per_tracked_frame_mean"])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rev", required=True, help="the git revision to compare with (e.g. main)")
+    ap.add_argument("--cameras", type=int, default=4)
+    ap.add_argument("--frames", type=int, default=12)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", help="write the measurements here")
+    ap.add_argument("track_args", nargs="*", help="options for ipf-jax track (after --)")
+    args = ap.parse_args(argv)
+    tmp = Path(tempfile.mkdtemp(prefix="ipf-vs-"))
+    other = tmp / "rev"
+    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(other), args.rev],
+                   check=True, capture_output=True)
+    try:
+        data = make_dataset(tmp / "data", args.cameras, args.frames)
+        trees = {"working tree": REPO, args.rev: other}
+        for name, tree in trees.items():  # compile (persistent cache), not counted
+            run_track(tree, data, tmp / f"warm-{abs(hash(name))}", args.track_args)
+        times = {name: [] for name in trees}
+        for r in range(args.repeats):
+            for name, tree in trees.items():
+                times[name].append(run_track(tree, data, tmp / f"run{r}-{abs(hash(name))}", args.track_args))
+            print(f"repeat {r + 1}: " + ", ".join(f"{n} {t[-1]:.4f} s/frame" for n, t in times.items())
+                  + f", ratio {times[args.rev][-1] / times['working tree'][-1]:.2f}", flush=True)
+        ratios = [a / b for a, b in zip(times[args.rev], times["working tree"])]
+        doc = {"rev": args.rev, "track_args": args.track_args, "cameras": args.cameras,
+               "frames": args.frames, "seconds_per_frame": times,
+               "ratio_rev_over_working_tree": ratios, "median_ratio": float(np.median(ratios))}
+        print(f"median: {args.rev} / working tree = {doc['median_ratio']:.2f}")
+        if args.json:
+            Path(args.json).write_text(json.dumps(doc, indent=1))
+    finally:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)],
+                       check=False, capture_output=True)
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
