@@ -2,7 +2,7 @@
 
 The pipeline is a stack of stage packages (docs/architecture.md), each importing only the ones
 below it: ``body`` (topology, shape, limits) -> ``geometry`` (cameras, kinematics, projection, rays)
--> ``likelihood`` (raster, scorer: w = Nc / (Ns + Nm)) | ``filters`` (ipf, apf, sir) | ``data``
+-> ``likelihood`` (raster, scorer: w = Nc / (Ns + Nm)) | ``filters`` (ipf, fipf, apf, sir) | ``data``
 (calibration, datasets, silhouettes, run files) -> ``tracking`` (initialisation, body origin, the
 tracker) -> ``analysis`` (gait, evaluation, export, bodytrack, single camera) | ``viz`` (overlays,
 synthetic data) -> ``sweep`` -> ``cli``. ``reference`` is the NumPy oracle of the tests.

@@ -215,7 +215,7 @@ CASES = {
         None),
     "unknown_filter_name": (
         lambda ds: ["--filter", "kalman", "--"], "--filter kalman",
-        r"unknown filter 'kalman' \(choose ipf, apf, sir\)", None),
+        r"unknown filter 'kalman' \(choose ipf, fipf, apf, sir\)", None),
     "output_folder_not_writable": (
         lambda ds: ["--out", str(ds / "FG1" / "image0000.png" / "run")], "image0000.png/run",
         r"output folder is not writable", None),

@@ -195,6 +195,7 @@ def limb_error(scene, q: np.ndarray) -> float:
 
 @pytest.mark.parametrize("name, budget, steps, noise, estimates", [
     ("ipf", 486, 5, 0.3, ("best",)),  # the paper's estimate: the heaviest particle
+    ("fipf", 800, 2, 0.3, ("best",)),  # 800 = M 1 x 774 + 26 filler
     ("apf", 600, 6, 0.3, ("best", "mean")),
     # Condensation's estimate is the mean: its heaviest particle carries a full step of 31-DOF
     # diffusion (nothing narrows it within a frame), so it stays a pixel or two off; its noise is
@@ -230,14 +231,60 @@ def test_run_json_reports_exactly_what_the_scorer_evaluated(scene, tmp_path, nam
     """SYNTHETIC walk, 3 frames from a given initial pose (1 initial evaluation)."""
     masks = syn.render_masks(scene["walk"][:3], scene["shape"], scene["cams"])
     ds = MemoryDataset(scene["cams"], masks, fps=FPS, up_axis="+z")
+    opts = {"points_per_dof": 2} if name == "fipf" else {}  # 2 x 84 per kept particle fits 300
     settings = TrackSettings(filter=name, budget=300, init_pose=scene["walk"][0], height_m=HEIGHT,
+                             filter_options=opts,
                              chunk=CHUNK, confidence_drop=0.0)
     tracker = Tracker(ds, settings)
     tracker.run(tmp_path, progress=False)
     run = json.loads((tmp_path / "run.json").read_text())
     per_frame = [r["evaluations"] for r in run["per_frame"]]
-    expected = {"ipf": 243, "apf": 300, "sir": 300}[name]
+    expected = {"ipf": 243, "fipf": 300, "apf": 300, "sir": 300}[name]
     assert run["evaluations_per_frame"] == expected <= run["settings"]["budget"]
     assert per_frame == [0, expected, expected]
     assert run["init_evaluations"] == 1
     assert tracker.scorer.evaluations == run["init_evaluations"] + sum(per_frame)
+
+
+# -- factored IPF --------------------------------------------------------------------------------
+@pytest.mark.parametrize("budget", [774, 1000, 6561, 20000])
+def test_fipf_spends_the_budget_exactly(budget):
+    f = registry.make("fipf", {}, LIMITS, FPS, budget)
+    assert f.evaluations_per_frame == budget
+    assert f.params["top_m"] == budget // 774 and f.params["filler"] == budget % 774
+
+
+def test_fipf_groups_cover_every_dof_once_and_bad_groups_are_refused():
+    from ipf_jax.body.model import DOF_NAMES
+    from ipf_jax.filters import fipf
+    named = [d for _, grid, noise in fipf.GROUPS for d in (*grid, *noise)]
+    assert sorted(named) == sorted(DOF_NAMES)
+    with pytest.raises(IPFError, match="every DOF exactly once"):
+        fipf.validate(fipf.FIPFSettings(groups=fipf.GROUPS[:-1]))
+    with pytest.raises(IPFError, match="needs 774 per kept particle|774 per kept particle"):
+        registry.make("fipf", {}, LIMITS, FPS, 500)
+
+
+def test_fipf_evaluates_what_it_reports_and_never_loses_the_best():
+    """A fake likelihood (closeness to a target pose): the weights the filter sees are counted, and
+    the frame's best is at least the kept particles' best (the centre child is the parent)."""
+    from ipf_jax.filters import fipf
+    target = LIMITS.clip(np.full(NUM_DOF, 0.05))
+    calls = []
+
+    def measure(p):
+        calls.append(len(p))
+        return np.exp(-np.abs(p - target).sum(1))
+
+    f = registry.make("fipf", {}, LIMITS, FPS, 1000)  # 3 points per DOF: the centre is a child
+    start = LIMITS.clip(np.zeros(NUM_DOF))[None]
+    state = f.init(start, measure(start))
+    calls.clear()
+    weights = []
+    for k in range(3):
+        state, info = f.step(jax.random.PRNGKey(k), state, measure)
+        assert sum(calls) == info.evaluations == 1000
+        calls.clear()
+        weights.append(info.best_weight)
+    assert weights == sorted(weights) and weights[-1] > float(measure(start)[0])
+    assert fipf.max_speed("left_knee_flexion") == fipf.MAX_SPEEDS["knee_flexion"]

@@ -86,7 +86,7 @@ def test_cells_are_the_product_of_value_lists_with_stable_ids(scene):
     ('[[filter]]\nname = "ipf"\ntop_m = []\n', "top_m is an empty list"),
     ('[[filter]]\nname = "ipf"\nlayers = [3]\n', "do not apply to the ipf filter"),
     ('[[filter]]\nname = "ipf"\nbudget = [10]\n', "cannot hold one grid"),
-    ('[[filter]]\nname = "ukf"\n', "name must be one of ipf, apf, sir"),
+    ('[[filter]]\nname = "ukf"\n', "name must be one of ipf, fipf, apf, sir"),
     ('[[filter]]\nname = "sir"\nresolution = 8\n', "resolution must be 16..2048"),
     ('[[filter]]\nname = "sir"\nframes = "0-4"\n', "frames must be "),
     ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "nowhere"\n', "dataset folder not found"),

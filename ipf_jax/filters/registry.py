@@ -5,6 +5,8 @@ user did not give so that it spends as much of the budget as it can without exce
 
 ========  =====================================================================================
 ipf       M = budget // I (I = P^|L| grid points; ``particles`` stands for M x I the same way)
+fipf      M = budget // (rounds x sum of the group grids); the remainder is ``filler`` (noisy
+          copies), so the budget is spent exactly (``particles`` stands for the budget)
 apf       particles = budget // layers; or, with ``particles`` given, layers = budget // particles
 sir       particles = budget
 ========  =====================================================================================
@@ -22,12 +24,13 @@ from typing import NamedTuple
 
 from ..body.limits import Limits
 from ..errors import IPFError, require
-from . import apf, ipf, sir
+from . import apf, fipf, ipf, sir
 from .base import Filter
 
-NAMES = ("ipf", "apf", "sir")
-_MODULES = {"ipf": ipf, "apf": apf, "sir": sir}
-SETTINGS = {"ipf": ipf.IPFSettings, "apf": apf.APFSettings, "sir": sir.SIRSettings}
+NAMES = ("ipf", "fipf", "apf", "sir")
+_MODULES = {"ipf": ipf, "fipf": fipf, "apf": apf, "sir": sir}
+SETTINGS = {"ipf": ipf.IPFSettings, "fipf": fipf.FIPFSettings, "apf": apf.APFSettings,
+            "sir": sir.SIRSettings}
 
 #: The options each filter understands (keys of ``make``'s ``options``): its settings' fields, and
 #: ``particles`` (for IPF: N = M x I).
@@ -54,7 +57,7 @@ def options_for(name: str, options: dict) -> dict:
 
 def evaluations(name: str, settings: NamedTuple) -> int:
     """Likelihood evaluations per frame of filter ``name`` with ``settings``."""
-    return {"ipf": lambda s: s.top_m * s.grid_size(), "apf": lambda s: s.particles * s.layers,
+    return {"ipf": lambda s: s.top_m * s.grid_size(), "fipf": lambda s: s.evaluations(), "apf": lambda s: s.particles * s.layers,
             "sir": lambda s: s.particles}[name](settings)
 
 
@@ -70,7 +73,7 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> 
     options = {k: v for k, v in options.items() if v is not None}
     extra = sorted(set(options) - set(OPTIONS[name]))
     require(not extra, f"option(s) {', '.join(extra)} do not apply to the {name} filter")
-    settings = {"ipf": _ipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
+    settings = {"ipf": _ipf_settings, "fipf": _fipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
     _MODULES[name].validate(settings)
     need = evaluations(name, settings)
     if budget is not None and need > budget:
@@ -117,4 +120,20 @@ def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
         require(total >= grid, f"{total} particles cannot hold one grid of I = {grid} neighbours "
                 f"({settings.points_per_dof} points per DOF over {len(settings.interesting)} DOF)")
         settings = settings._replace(top_m=total // grid)
+    return settings
+
+
+def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
+    options = dict(options)
+    total = options.pop("particles", None)
+    if total is not None and "top_m" in options:
+        raise IPFError("give either --particles or --top-m, not both")
+    settings = fipf.FIPFSettings(**options)
+    total = total if total is not None else (None if "top_m" in options else budget)
+    if total is not None:
+        cost = settings.cost_per_particle()
+        require(total >= cost, f"{total} evaluations cannot search the groups once per kept particle "
+                f"(the factored filter needs {cost} per kept particle: {settings.rounds} round(s) "
+                f"over grids of {'+'.join(map(str, settings.grid_sizes()))})")
+        settings = settings._replace(top_m=total // cost, filler=total % cost)
     return settings

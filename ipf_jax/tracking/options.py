@@ -95,16 +95,23 @@ def _filter_default(name: str, key: str) -> str:
 
 OPTIONS: tuple[Option, ...] = (
     # -- the filter and its budget
-    Option("filter", "--filter", "choice", "ipf", "the filter: ipf (the paper's), apf or sir",
+    Option("filter", "--filter", "choice", "ipf", "the filter: ipf (the paper's), fipf (factored IPF, "
+           "docs/fipf.md), apf or sir",
            choices=registry.NAMES),
     Option("budget", "--budget", "int", None, "likelihood evaluations per frame; each filter maps it "
            "onto its own sizes (IPF: M = budget // I)", check=_at_least(1)),
     Option("particles", "--particles", "int", None, "particles: IPF N = M x I (the largest M that "
            "fits), APF per layer, SIR in all", "filter"),
-    Option("top_m", "--top-m", "int", None, "IPF: M, distinct particles kept per frame"
-           + _filter_default("ipf", "top_m"), "filter"),
-    Option("points_per_dof", "--points-per-dof", "int", None, "IPF: grid points per interesting DOF"
-           + _filter_default("ipf", "points_per_dof") + "; I = points ** |L|", "filter"),
+    Option("top_m", "--top-m", "int", None, "IPF and FIPF: M, distinct particles kept per frame "
+           "(FIPF: per group)" + _filter_default("ipf", "top_m"), "filter"),
+    Option("points_per_dof", "--points-per-dof", "int", None, "IPF and FIPF: grid points per "
+           "searched DOF" + _filter_default("ipf", "points_per_dof") + "; I = points ** |L|", "filter"),
+    Option("rounds", "--rounds", "int", None, "FIPF: passes over all groups per frame, each finer "
+           "by --shrink" + _filter_default("fipf", "rounds"), "filter", check=_at_least(1)),
+    Option("shrink", "--shrink", "float", None, "FIPF: interval width multiplier from one round to "
+           "the next (default 1/3)", "filter", check=_within(0.01, 1.0)),
+    Option("speed_scale", "--speed-scale", "float", None, "FIPF: multiply every DOF's maximum "
+           "speed (the interval half-width is speed / fps; default 1)", "filter", check=_positive),
     Option("interval_width_deg", "--interval-width", "float", None, "IPF: full interval width, "
            "degrees per frame (overrides --max-speed)", "filter", metavar="DEG"),
     Option("max_speed_deg_s", "--max-speed", "float", None, "IPF: maximum angular speed of the "
