@@ -30,6 +30,7 @@ import numpy as np
 from ipf_jax.paths import shared_data_dir
 
 FILTERS = ("ipf", "fipf", "apf", "sir")
+IPF_JAX = str(Path(sys.executable).with_name("ipf-jax"))  # the CLI installed beside this Python
 DEFAULT_SETS = "rajagopal_walk_clean_4cam,sub4_walk_clean_4cam,rajagopal_longlegs_noisy_4cam"
 
 
@@ -37,7 +38,7 @@ def start_of(root: Path, name: str, first: int, out: Path) -> tuple[Path, float]
     """The automatic initialisation's pose file and height for set ``name`` (run once, kept)."""
     run = out / "starts" / name
     if not (run / "poses.csv").is_file():
-        subprocess.run([sys.executable, "-m", "ipf_jax.cli.main", "track", str(root / name), "--frames",
+        subprocess.run([IPF_JAX, "track", str(root / name), "--frames",
                         f"{first}:{first + 1}", "--out", str(run)], check=True)
     height = json.loads((run / "shape.json").read_text())["height_m"]
     return run / "poses.csv", float(height)
@@ -124,7 +125,7 @@ def main(argv=None) -> None:
     starts = {s: start_of(root, s, first, a.out) for s in sets}
     config = a.out / "sweep.toml"
     write_config(config, root, sets, starts, budgets, seeds, a.frames)
-    subprocess.run([sys.executable, "-m", "ipf_jax.cli.main", "sweep", str(config), "--out", str(a.out / "sweep"),
+    subprocess.run([IPF_JAX, "sweep", str(config), "--out", str(a.out / "sweep"),
                     "--backend", a.backend], check=True)
     table = tabulate(a.out / "sweep" / "summary.csv", a.out)
     plot(table, a.out / "filters_budgets.png")

@@ -53,7 +53,7 @@ def test_batch_records_failures_and_resumes(lab, tmp_path, capsys, monkeypatch):
     rows = read_summary(out / "summary.csv")
     assert [r["status"] for r in rows] == ["ok", "ok", "failed", "failed"]
     assert 0 < float(rows[0]["mpjpe_m"]) < 0.2 and rows[1]["mpjpe_m"] == ""  # no truth: no error measured
-    assert rows[0]["evaluations_per_frame"] == "32" and rows[0]["frames_done"] == "2"
+    assert rows[0]["evaluations_per_frame"] == "336" and rows[0]["frames_done"] == "2"
     assert len(list((out / "items").glob("*.json"))) == 4
 
     calls = []
@@ -66,7 +66,7 @@ def test_batch_records_failures_and_resumes(lab, tmp_path, capsys, monkeypatch):
 def test_batch_option_mistakes_are_one_line(lab, tmp_path, capsys):
     manifest = str(lab / "manifest.txt")
     assert main(["batch", manifest, "--out", str(tmp_path / "o"), "--layers", "3"]) == 2
-    assert "layers do not apply to the ipf filter" in capsys.readouterr().err
+    assert "layers do not apply to the fipf filter" in capsys.readouterr().err
     assert main(["batch", str(lab / "nope.txt"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err == f"error: {lab / 'nope.txt'}: manifest not found"

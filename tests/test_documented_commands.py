@@ -34,7 +34,7 @@ SMALL = {
     "track": ["--init-budget", "small", "--budget", "648", "--quiet"],
     "compare": ["--init-budget", "small", "--budget", "324", "--repeat", "1", "--quiet"],
     "batch": ["--init-budget", "small", "--budget", "648", "--quiet"],
-    "demo": ["--num-frames", "13", "--init-budget", "small", "--top-m", "2", "--cameras", "2"],
+    "demo": ["--num-frames", "13", "--init-budget", "small", "--top-m", "1", "--cameras", "2"],
     "bench": ["--quick", "--budget", "2", "--repeats", "1"],
     "render": ["--size", "240", "--quiet"],
 }

@@ -187,7 +187,7 @@ CASES = {
         lambda ds: ["--limits", str(limits_min_above_max(ds))],
         "limits.json", r"left_knee_flexion: min 10\.0 > max -10\.0", None),
     "particles_fewer_than_one_grid": (
-        lambda ds: ["--particles", "10", "--points-per-dof", "2", "--"],
+        lambda ds: ["--filter", "ipf", "--particles", "10", "--points-per-dof", "2", "--"],
         "--particles 10", r"10 particles cannot hold one grid of I = 16", None),
     "zero_particles": (
         lambda ds: ["--filter", "sir", "--particles", "0", "--"],
@@ -195,10 +195,10 @@ CASES = {
     "zero_top_m": (
         lambda ds: ["--top-m", "0", "--"], "--top-m 0", r"top M must be >= 1 \(got 0\)", None),
     "zero_interval_width": (
-        lambda ds: ["--interval-width", "0"], "--interval-width 0.0",
+        lambda ds: ["--filter", "ipf", "--interval-width", "0"], "--interval-width 0.0",
         r"interval width must be > 0 degrees", None),
     "negative_interval_width": (
-        lambda ds: ["--interval-width", "-5"], "--interval-width -5.0",
+        lambda ds: ["--filter", "ipf", "--interval-width", "-5"], "--interval-width -5.0",
         r"interval width must be > 0 degrees \(got -5\.0\)", None),
     "negative_noise": (
         lambda ds: ["--noise-scale", "-1"], "--noise-scale -1.0", r"noise scale must be >= 0", None),
@@ -206,7 +206,7 @@ CASES = {
         lambda ds: ["--filter", "apf", "--layers", "0", "--"], "--layers 0",
         r"at least one layer \(got 0\)", None),
     "budget_below_one_grid": (
-        lambda ds: ["--budget", "10", "--points-per-dof", "2", "--"], "--budget 10",
+        lambda ds: ["--filter", "ipf", "--budget", "10", "--points-per-dof", "2", "--"], "--budget 10",
         r"10 particles cannot hold one grid", None),
     "height_out_of_range": (
         lambda ds: ["--height", "3.5"], "--height 3.5", r"must be 0\.5\.\.2\.6 m", None),

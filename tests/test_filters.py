@@ -261,8 +261,10 @@ def test_fipf_groups_cover_every_dof_once_and_bad_groups_are_refused():
     assert sorted(named) == sorted(DOF_NAMES)
     with pytest.raises(IPFError, match="every DOF exactly once"):
         fipf.validate(fipf.FIPFSettings(groups=fipf.GROUPS[:-1]))
-    with pytest.raises(IPFError, match="needs 774 per kept particle|774 per kept particle"):
-        registry.make("fipf", {}, LIMITS, FPS, 500)
+    with pytest.raises(IPFError, match="774 per kept particle"):
+        registry.make("fipf", {"points_per_dof": 3}, LIMITS, FPS, 500)
+    small = registry.make("fipf", {}, LIMITS, FPS, 500)  # not given: 2 points per DOF (168)
+    assert (small.params["points_per_dof"], small.params["top_m"], small.evaluations_per_frame) == (2, 2, 500)
 
 
 def test_fipf_evaluates_what_it_reports_and_never_loses_the_best():

@@ -42,7 +42,7 @@ def walk(tmp_path_factory) -> Path:
 
 def track_argv(walk: Path, out: Path, *extra: str, chunk: int = 128) -> list[str]:
     return ["track", str(walk), "--out", str(out), "--quiet", "--resolution", "160",
-            "--chunk", str(chunk), "--top-m", "2", "--points-per-dof", "3", "--height", "1.75",
+            "--chunk", str(chunk), "--top-m", "2", "--points-per-dof", "2", "--height", "1.75",
             "--init-pose", str(walk / "init.csv"), "--init-budget", "small", "--checkpoint-every", "3",
             "--seed", "5", *extra]
 
@@ -87,7 +87,7 @@ def test_sigkill_then_resume_is_byte_identical(walk, tmp_path, capsys):
     # resuming with other settings is refused and leaves the files as they are
     before = {p.name: p.read_bytes() for p in cut.iterdir() if p.is_file()}
     capsys.readouterr()
-    assert main(track_argv(walk, cut, "--resume", "--interval-width", "12")) == 2
+    assert main(track_argv(walk, cut, "--resume", "--speed-scale", "0.8")) == 2
     assert "cannot resume: the run in this folder used other settings or data" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in cut.iterdir() if p.is_file()} == before
 

@@ -212,7 +212,7 @@ def _fast_settings():
                         refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1)
     fit = ShapeFitSettings(frames=3, rounds=1, generations=3, population=8, pose_keep=2, pose_sweeps=1,
                            refit_frames=3)
-    return TrackSettings(filter_options={"top_m": 4}, resolution=96, init=init, chunk=64, shape_fit=fit)
+    return TrackSettings(filter="ipf", filter_options={"top_m": 4}, resolution=96, init=init, chunk=64, shape_fit=fit)
 
 
 @pytest.mark.slow

@@ -14,7 +14,7 @@ from ipf_jax.viz import synthetic as syn
 SHAPE = default_shape(1.75)
 FAST_INIT = InitSettings(headings=8, position_steps=0, heights_m=(1.75,), modes=1, keep=8,
                          refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1)
-SETTINGS = TrackSettings(filter_options={"top_m": 4}, resolution=160, init=FAST_INIT, chunk=128,
+SETTINGS = TrackSettings(filter="ipf", filter_options={"top_m": 4}, resolution=160, init=FAST_INIT, chunk=128,
                          checkpoint_every=2)
 
 

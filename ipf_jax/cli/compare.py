@@ -33,8 +33,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("dataset", help="a dataset folder (bodytrack layout or a dataset.json)")
     add_common(p, "out")
     add_tracking_options(p, exclude=("filter", "budget"))
-    p.add_argument("--filters", flag("filter"), dest="filters", default="ipf,apf,sir",
-                   help="comma-separated filters (default ipf,apf,sir)")
+    p.add_argument("--filters", flag("filter"), dest="filters", default="ipf,fipf,apf,sir",
+                   help="comma-separated filters (default ipf,fipf,apf,sir)")
     add_option(p, "budget", required=True, help="likelihood evaluations per frame, the same for "
                "every filter")
     p.add_argument("--truth", help="reference joints, a CSV in the joints.csv convention")

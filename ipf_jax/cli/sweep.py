@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..data.frames import describe
 from ..errors import require
+from ..filters import registry
 from ..sweep.backends import BACKENDS
 from ..sweep.spec import resolve
 from ..tracking.options import resolve_path, split
@@ -153,5 +154,5 @@ def settings_from_args(args, base: Path | None = None) -> dict:
                 "file (a bodytrack InitialPose.txt belongs to one recording)", init_pose)
         require(init_pose.is_file(), "initial pose file not found", init_pose)
         init_pose = str(init_pose)
-    return {"filter": track.pop("filter", "ipf"), "options": options, "frames": frames,
+    return {"filter": track.pop("filter", registry.DEFAULT), "options": options, "frames": frames,
             "init_pose": init_pose, "track": track, "eval": {"joints": None, "align": "none"}}

@@ -63,14 +63,18 @@ GROUPS: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
 )
 
 #: Maximum speed of each grid DOF in everyday movement (walking, turning, rising from a chair),
-#: deg/s (root translation: m/s, the residual after the body origin positioning). Sources: sagittal joint
-#: angular velocities of normal walking peak near 350-400 deg/s at the knee in swing, ~250-300 deg/s
-#: at the ankle at push-off and ~200 deg/s at the hip (Winter, *Biomechanics and Motor Control of
-#: Human Movement*, 4th ed., 2009, gait data appendix; Perry & Burnfield, *Gait Analysis*, 2010);
-#: rising from a chair moves trunk, hip and knee at ~60-150 deg/s (Schenkman et al., Phys Ther
-#: 70:638, 1990); the pelvis turns at up to ~200 deg/s in a walking turn (Hase & Stein, J
-#: Neurophysiol 81:2162, 1999); arm swing in walking ~100-200 deg/s at shoulder and elbow (Meyns et
-#: al., J Biomech 46:1, 2013). ``speed_scale`` multiplies them all.
+#: deg/s (root translation: m/s, the residual after the body origin positioning). Sources:
+#: sagittal lower-limb angular velocities of walking at 0.4-1.6 m/s peak near 350-400 deg/s at the
+#: knee in swing, ~250-300 deg/s at the ankle at push-off and ~200 deg/s at the hip (Mentiplay et
+#: al., "Lower limb angular velocity during walking at various speeds", Gait & Posture 65, 2018;
+#: Winter, *The Biomechanics and Motor Control of Human Gait*, 1987); rising from a chair moves
+#: trunk, hip and knee at ~60-150 deg/s (Schenkman et al., "Whole-body movements during rising to
+#: standing from sitting", Phys Ther 70, 1990); the body turns in a step or spin turn within about
+#: one step (Hase & Stein, "Turning strategies during human walking", J Neurophysiol 81, 1999):
+#: 90 deg in ~0.5 s; arm swing in walking (Meyns, Bruijn & Duysens, "The how and why of arm swing
+#: during human walking", Gait & Posture 38, 2013): shoulder and elbow well under 200 deg/s.
+#: Frontal-plane DOFs (abduction, pelvis roll, trunk lateral) move far less. ``speed_scale``
+#: multiplies them all.
 MAX_SPEEDS: dict[str, float] = {
     "root_tx": 0.4, "root_ty": 0.4, "root_tz": 0.4, "root_yaw": 200.0,
     "root_pitch": 100.0, "root_roll": 60.0, "trunk_flexion": 120.0, "trunk_lateral": 60.0,
@@ -86,6 +90,10 @@ def max_speed(dof: str) -> float:
     key = dof.removeprefix("left_").removeprefix("right_")
     require(key in MAX_SPEEDS, f"no maximum speed for DOF {dof}")
     return MAX_SPEEDS[key]
+
+
+#: Evaluations per frame when neither a budget nor M is given: the paper's IPF (81 x 3^4).
+DEFAULT_BUDGET = 6561
 
 
 class FIPFSettings(NamedTuple):

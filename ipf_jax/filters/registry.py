@@ -6,7 +6,9 @@ user did not give so that it spends as much of the budget as it can without exce
 ========  =====================================================================================
 ipf       M = budget // I (I = P^|L| grid points; ``particles`` stands for M x I the same way)
 fipf      M = budget // (rounds x sum of the group grids); the remainder is ``filler`` (noisy
-          copies), so the budget is spent exactly (``particles`` stands for the budget)
+          copies), so the budget is spent exactly (``particles`` stands for the budget); with
+          neither, the paper's 6561. Below 774 (3 points per DOF, 2 rounds), unless given: 2
+          points (168), then 2 points and 1 round (84)
 apf       particles = budget // layers; or, with ``particles`` given, layers = budget // particles
 sir       particles = budget
 ========  =====================================================================================
@@ -28,6 +30,8 @@ from . import apf, fipf, ipf, sir
 from .base import Filter
 
 NAMES = ("ipf", "fipf", "apf", "sir")
+#: The filter a run uses unless told: chosen by measurement over every visible walk (docs/fipf.md).
+DEFAULT = "fipf"
 _MODULES = {"ipf": ipf, "fipf": fipf, "apf": apf, "sir": sir}
 SETTINGS = {"ipf": ipf.IPFSettings, "fipf": fipf.FIPFSettings, "apf": apf.APFSettings,
             "sir": sir.SIRSettings}
@@ -129,8 +133,13 @@ def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
     if total is not None and "top_m" in options:
         raise IPFError("give either --particles or --top-m, not both")
     settings = fipf.FIPFSettings(**options)
-    total = total if total is not None else (None if "top_m" in options else budget)
+    if total is None and "top_m" not in options:  # no size given: the budget, else the paper's
+        total = budget if budget is not None else fipf.DEFAULT_BUDGET
     if total is not None:
+        for fallback in ({"points_per_dof": 2}, {"points_per_dof": 2, "rounds": 1}):
+            if total >= settings.cost_per_particle() or set(fallback) & set(options):
+                break  # small budgets: coarser grids unless the user chose them
+            settings = settings._replace(**fallback)
         cost = settings.cost_per_particle()
         require(total >= cost, f"{total} evaluations cannot search the groups once per kept particle "
                 f"(the factored filter needs {cost} per kept particle: {settings.rounds} round(s) "

@@ -95,8 +95,8 @@ def _filter_default(name: str, key: str) -> str:
 
 OPTIONS: tuple[Option, ...] = (
     # -- the filter and its budget
-    Option("filter", "--filter", "choice", "ipf", "the filter: ipf (the paper's), fipf (factored IPF, "
-           "docs/fipf.md), apf or sir",
+    Option("filter", "--filter", "choice", registry.DEFAULT, "the filter: ipf (the paper's), fipf "
+           "(factored IPF, docs/fipf.md), apf or sir (default " + registry.DEFAULT + ")",
            choices=registry.NAMES),
     Option("budget", "--budget", "int", None, "likelihood evaluations per frame; each filter maps it "
            "onto its own sizes (IPF: M = budget // I)", check=_at_least(1)),
@@ -233,7 +233,7 @@ def check_values(values: dict, *, name: Callable[[str], str] = lambda k: BY_KEY[
                        f"{name('passes')} 2 {name('shape_file')} {track['shape_file']}")
     fps = track.get("fps") or DEFAULT_FPS
     try:
-        registry.resolve(track.get("filter", "ipf"), filt, fps, budget=track.get("budget"))
+        registry.resolve(track.get("filter", registry.DEFAULT), filt, fps, budget=track.get("budget"))
     except IPFError as e:
         given = " ".join(f"{name(k)} {_show(values[k])}" for k in ("filter", "budget", *FILTER_KEYS)
                          if values.get(k) is not None)

@@ -10,6 +10,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
+from ..filters import registry
 from .initialise import InitSettings
 from .shape_fit import ShapeFitSettings
 
@@ -33,7 +34,7 @@ def init_settings(name: str = "default") -> InitSettings:
 class TrackSettings(NamedTuple):
     """One run's settings (immutable; see :mod:`ipf_jax.tracking.options` for each one's meaning)."""
 
-    filter: str = "ipf"
+    filter: str = registry.DEFAULT
     filter_options: Mapping = MappingProxyType({})  # the filter's own options (top_m, layers, ...)
     budget: int | None = None
     resolution: int = DEFAULT_RESOLUTION
