@@ -38,6 +38,7 @@ _API = {
     # tracking
     "track": "ipf_jax.tracking.passes", "TrackSettings": "ipf_jax.tracking.tracker",
     "RunResult": "ipf_jax.tracking.tracker", "InitSettings": "ipf_jax.tracking.initialise",
+    "ShapeFitSettings": "ipf_jax.tracking.shape_fit",
     # analysis and output
     "evaluate_files": "ipf_jax.analysis.evaluation", "analyse_gait": "ipf_jax.analysis.gait",
     "render_run": "ipf_jax.viz.render",

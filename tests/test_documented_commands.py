@@ -31,10 +31,12 @@ FIRST_FRAMES = 12  # frames tracked per documented track/batch command (0.6 s at
 
 #: The documented rule: small settings appended to each command (README, "Documented commands").
 SMALL = {
-    "track": ["--init-budget", "small", "--budget", "648", "--quiet"],
-    "compare": ["--init-budget", "small", "--budget", "324", "--repeat", "1", "--quiet"],
-    "batch": ["--init-budget", "small", "--budget", "648", "--quiet"],
-    "demo": ["--num-frames", "13", "--init-budget", "small", "--top-m", "1", "--cameras", "2"],
+    "track": ["--init-budget", "small", "--shape-frames", "0", "--budget", "648", "--quiet"],
+    "compare": ["--init-budget", "small", "--shape-frames", "0", "--budget", "324", "--repeat", "1",
+                "--quiet"],
+    "batch": ["--init-budget", "small", "--shape-frames", "0", "--budget", "648", "--quiet"],
+    "demo": ["--num-frames", "13", "--init-budget", "small", "--shape-frames", "0", "--top-m", "1",
+             "--cameras", "2"],
     "bench": ["--quick", "--budget", "2", "--repeats", "1"],
     "render": ["--size", "240", "--quiet"],
 }
@@ -249,7 +251,8 @@ def test_the_readme_library_example_runs_and_imports_the_public_package_only(tmp
     monkeypatch.chdir(tmp_path)
     small = code.replace("procedural_walk(20,", "procedural_walk(3,").replace(
         "ipf.TrackSettings(", "ipf.TrackSettings(init=ipf.InitSettings(headings=8, position_steps=0, "
-        "modes=1, keep=8, refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1), ")
+        "modes=1, keep=8, refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1), "
+        "shape_fit=ipf.ShapeFitSettings(frames=0), ")
     assert small != code
     exec(compile(small, "README.md", "exec"), {})
     assert (tmp_path / "out" / "joints.csv").is_file()

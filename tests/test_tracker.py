@@ -9,13 +9,14 @@ from ipf_jax.data.dataset import MemoryDataset
 from ipf_jax.data.runfiles import JOINT_COLUMNS, POSE_COLUMNS
 from ipf_jax.tracking.initialise import InitSettings
 from ipf_jax.tracking.tracker import TrackSettings, track
+from ipf_jax.tracking.shape_fit import ShapeFitSettings
 from ipf_jax.viz import synthetic as syn
 
 SHAPE = default_shape(1.75)
 FAST_INIT = InitSettings(headings=8, position_steps=0, heights_m=(1.75,), modes=1, keep=8,
                          refine_rounds=1, refine_particles=64, pattern_keep=2, pattern_sweeps=1)
 SETTINGS = TrackSettings(filter="ipf", filter_options={"top_m": 4}, resolution=160, init=FAST_INIT, chunk=128,
-                         checkpoint_every=2)
+                         checkpoint_every=2, shape_fit=ShapeFitSettings(frames=0))
 
 
 @pytest.fixture(scope="module")

@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
     p.add_argument("--num-frames", type=int, default=24, help="how many frames to render and track "
                    "(default 24)")
     add_common(p, "cameras", type=int, default=3, help="how many virtual cameras, 1..8 (default 3)")
-    for key in ("top_m", "seed", "init_budget"):
+    for key in ("top_m", "seed", "init_budget", "shape_frames"):
         add_option(p, key)
     p.set_defaults(func=run)
 
@@ -41,16 +41,19 @@ def run(args) -> int:
     from .demo import run_demo
 
     return run_demo(Path(args.out), n_frames=args.num_frames, n_cameras=args.cameras, top_m=args.top_m,
-                    seed=args.seed or 0, init=init_settings(args.init_budget or "default"))
+                    seed=args.seed or 0, init=init_settings(args.init_budget or "default"),
+                    shape_frames=args.shape_frames)
 
 
 def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | None = None,
-             seed: int = 0, init=None) -> int:
+             seed: int = 0, init=None, shape_frames: int | None = None) -> int:
     from ..errors import require
     from ..tracking.initialise import InitSettings
+    from ..tracking.shape_fit import ShapeFitSettings
 
     require(2 <= n_frames <= 400, f"--num-frames must be 2..400 (got {n_frames})")
     require(1 <= n_cameras <= 8, f"--cameras must be 1..8 (got {n_cameras})")
+    require(shape_frames is None or shape_frames >= 0, f"--shape-frames must be >= 0 (got {shape_frames})")
     out = check_writable(out)
     shape = default_shape(DEMO_HEIGHT_M)
     cams = syn.ring_cameras(n_cameras, radius=4.0, focal_px=380.0)
@@ -68,8 +71,9 @@ def run_demo(out: Path, *, n_frames: int = 24, n_cameras: int = 3, top_m: int | 
         "ground_truth.csv: joints.csv convention, metres, +z up.\n")
     opts = {} if top_m is None else {"top_m": top_m}
     ds = open_dataset(data)
+    fit = ShapeFitSettings() if shape_frames is None else ShapeFitSettings(frames=shape_frames)
     res = track(ds, out / "run", TrackSettings(filter_options=opts, seed=seed, fps=DEMO_FPS,
-                                               init=init or InitSettings()))
+                                               init=init or InitSettings(), shape_fit=fit))
     err = np.linalg.norm(res.joints - truth, axis=-1) * 1000  # (T, J) mm
     limb = [POINT_NAMES.index(j) for j in LIMB_JOINTS]
     run = res.run

@@ -141,10 +141,11 @@ OPTIONS: tuple[Option, ...] = (
            "run's shape.json: fixes the body (no shape search; --height must agree with it within "
            "1 cm) (default: the template adult, its height and proportions searched)",
            check=_shape, metavar="FILE"),
-    Option("shape_frames", "--shape-frames", "int", 0, "fit the subject's proportions with the poses "
-           "of K frames spread over the recording before tracking (0, the default: the template's "
-           "proportions, searched on the first frame; docs/shape_fit.md)", check=_at_least(0),
-           metavar="K"),
+    Option("shape_frames", "--shape-frames", "int", ShapeFitSettings().frames, "fit the subject's "
+           "proportions with the poses of K frames spread over the recording before tracking "
+           f"(default {ShapeFitSettings().frames}; 0: the template's proportions, only the height "
+           "searched on the first frame; not done with --init-pose or --shape; docs/shape_fit.md)",
+           check=_at_least(0), metavar="K"),
     Option("passes", "--passes", "int", 1, "2: track, re-fit the shape on the tracked frames, "
            "track again (offline; pass 1's files in OUT/pass1) (default 1)", choices=(1, 2)),
     Option("limits", "--limits", "limits", "default", "DOF limits: a preset (" + ", ".join(PRESETS)
@@ -154,7 +155,8 @@ OPTIONS: tuple[Option, ...] = (
            "as the value starts with '-')", check=_range, metavar="LO,HI"),
     # -- the search
     Option("init_budget", "--init-budget", "choice", "default", "effort of the automatic "
-           "initialisation: default (the full search) or small (~10x cheaper: quick looks, tests)",
+           "initialisation: default (the full search) or small (~10x cheaper, and no shape fit "
+           "unless --shape-frames is given: quick looks, tests)",
            choices=tuple(INIT_BUDGETS)),
     Option("confidence_drop", "--confidence-drop", "float", 0.5, "re-initialise when the best "
            "weight falls below this fraction of its recent median (default 0.5)",
@@ -260,8 +262,12 @@ def settings_from(values: dict, *, init_pose=None) -> TrackSettings:
         filt["interesting"] = tuple(filt["interesting"])
     if "floor_range" in track:
         track["floor_range"] = tuple(track["floor_range"])
-    init = init_settings(track.pop("init_budget", "default"))
-    shape_fit = ShapeFitSettings(frames=track.pop("shape_frames", 0))
+    init_budget = track.pop("init_budget", "default")
+    init = init_settings(init_budget)
+    frames = track.pop("shape_frames", ShapeFitSettings().frames)
+    if init_budget == "small" and values.get("shape_frames") is None:
+        frames = 0  # a quick look: no shape fit unless asked for
+    shape_fit = ShapeFitSettings(frames=frames)
     return TrackSettings(filter_options=filt, init=init, init_pose=init_pose, shape_fit=shape_fit,
                          **track)
 

@@ -53,5 +53,5 @@ class TrackSettings(NamedTuple):
     init_pose: np.ndarray | None = None
     origin_shift: bool = True  # body origin positioning from the silhouettes (tracking.origin)
     floor_range: tuple[float, float] | None = None  # floor contact (tracking.contact); None = off
-    shape_fit: ShapeFitSettings = ShapeFitSettings(frames=0)  # the subject's proportions (0: none)
+    shape_fit: ShapeFitSettings = ShapeFitSettings()  # the subject's proportions (frames 0: none)
     passes: int = 1  # 2: track, re-fit the shape on the track, track again (tracking.passes)

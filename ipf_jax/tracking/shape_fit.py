@@ -84,7 +84,7 @@ class ShapeFitSettings(NamedTuple):
     fitted, its split kept near the template's unless the poses show otherwise.
     """
 
-    frames: int = 6
+    frames: int = 8  # the default of --shape-frames (measured: docs/shape_fit.md)
     rounds: int = 4
     generations: int = 10
     population: int = 16
