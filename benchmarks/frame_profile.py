@@ -56,7 +56,7 @@ FUNCTIONS = {
                   ("filters/selection.py", "systematic", ("resample_diffuse", "step"))],
     "filter step": [("filters/ipf.py", "step", None), ("filters/apf.py", "step", None),
                     ("filters/sir.py", "step", None), ("filters/fipf.py", "step", None)],
-    "measure": [("/tracker.py", "fn", ("step",))],
+    "measure": [("/tracker.py", "fn", None)],
     "counts": [("likelihood/scorer.py", "counts", None), ("ipf_jax/likelihood.py", "counts", None)],
     "geometry": [("likelihood/scorer.py", "geometry", None),
                  ("ipf_jax/likelihood.py", "geometry", None)],
@@ -142,6 +142,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=320)
     ap.add_argument("--data", help="track this data set's first frames (default: sequenceB_2 0,1,0,...)")
     ap.add_argument("--json", help="write the profile here")
+    ap.add_argument("--top", type=int, default=0, help="also print the N functions of most own time")
     args = ap.parse_args(argv)
     from ipf_jax import jax_setup
     from ipf_jax.paths import shared_data_dir
@@ -186,6 +187,8 @@ def main(argv=None) -> int:
         print(f"  {k:22s} {1000 * v:8.1f} ms  {100 * v / total:5.1f} %")
     print(f"  {'frame total':22s} {1000 * total:8.1f} ms; measure step {1000 * measure:.1f} ms; "
           f"frame / measure {total / measure:.2f}")
+    if args.top:
+        pstats.Stats(prof).sort_stats("tottime").print_stats(args.top)
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=1))
     return 0
