@@ -1,13 +1,14 @@
 """Tracking speed of the working tree against another git revision, measured in one run.
 
-    python benchmarks/vs_revision.py --rev REV [--cameras 4] [--frames 12] [--repeats 3]
+    python benchmarks/vs_revision.py --rev REV | --tree DIR [--cameras 4] [--frames 12] [--repeats 3]
                                      [--json FILE] -- TRACK OPTIONS (e.g. --filter apf --budget 20000)
 
 Both trees track the same frames with the same options through ``python -m ipf_jax.cli track``
 (an interface every revision has), alternately (A B A B ...), so drifts of the machine's speed hit
 both; each run's seconds per tracked frame come from its ``run.json``. REV is checked out with
 ``git worktree`` into a temporary folder beside the repository's ``.git`` (removed afterwards)
-and run with ``PYTHONPATH`` pointing at it.
+and run with ``PYTHONPATH`` pointing at it; ``--tree DIR`` uses a checkout that is already there
+instead (e.g. an older revision's worktree), left as it is.
 
 The frames: ``sequenceB_2``'s two real frames (4 calibrated cameras, real masks; ``--cameras 1``
 keeps Camera1) written ``--frames`` times alternately into a temporary bodytrack-layout folder,
@@ -65,7 +66,9 @@ def run_track(tree: Path, data: Path, out: Path, extra: list[str]) -> float:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rev", required=True, help="the git revision to compare with (e.g. main)")
+    which = ap.add_mutually_exclusive_group(required=True)
+    which.add_argument("--rev", help="the git revision to compare with (e.g. main)")
+    which.add_argument("--tree", help="a checked-out tree to compare with (not checked out again)")
     ap.add_argument("--cameras", type=int, default=4)
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--repeats", type=int, default=3)
@@ -73,9 +76,12 @@ def main(argv=None) -> int:
     ap.add_argument("track_args", nargs="*", help="options for ipf-jax track (after --)")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="ipf-vs-"))
-    other = tmp / "rev"
-    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(other), args.rev],
-                   check=True, capture_output=True)
+    other = Path(args.tree).resolve() if args.tree else tmp / "rev"
+    if args.tree is None:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(other), args.rev],
+                       check=True, capture_output=True)
+    else:
+        args.rev = str(other)
     try:
         data = make_dataset(tmp / "data", args.cameras, args.frames)
         trees = {"working tree": REPO, args.rev: other}
@@ -95,8 +101,9 @@ def main(argv=None) -> int:
         if args.json:
             Path(args.json).write_text(json.dumps(doc, indent=1))
     finally:
-        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)],
-                       check=False, capture_output=True)
+        if args.tree is None:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)],
+                           check=False, capture_output=True)
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
 

@@ -140,7 +140,19 @@ def machine() -> dict:
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
     return {"cpu": cpu, "cores": os.cpu_count(), "memory_gb": round(mem, 1),
             "os": platform.platform(), "python": platform.python_version(),
-            "numpy": np.__version__, "jax_devices": len(jax.devices())}
+            "numpy": np.__version__, "jax_devices": len(jax.devices()),
+            "jax_platform": jax.devices()[0].platform, "device_kind": jax.devices()[0].device_kind}
+
+
+def device_line() -> str:
+    """What the particles run on, e.g. ``jax 0.10.2 on 1 cpu device (cpu)``: the scorer shards
+    the particle axis over every local device of the default backend (CPU, GPU or TPU alike)."""
+    import jax
+
+    devs = jax.local_devices()
+    kinds = sorted({d.device_kind for d in devs})
+    return (f"jax {jax.__version__} on {len(devs)} {devs[0].platform} device"
+            f"{'s' if len(devs) > 1 else ''} ({', '.join(kinds)})")
 
 
 def _load_average() -> float | None:

@@ -19,7 +19,7 @@ from ipf_jax.data.dataset import MemoryDataset
 from ipf_jax.errors import IPFError
 from ipf_jax.filters import apf, registry
 from ipf_jax.filters.base import default_noise_rates
-from ipf_jax.filters.selection import systematic
+from ipf_jax.filters.selection import systematic, top_distinct
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.likelihood.scorer import Scorer, make_observation, weights_from_counts
 from ipf_jax.tracking.tracker import Tracker, TrackSettings
@@ -64,6 +64,31 @@ def test_systematic_skips_dead_particles_and_survives_all_dead():
     assert abs(np.mean(idx == 2) - 2 / 3) < 0.01
     idx = systematic(jax.random.PRNGKey(0), np.zeros(4), 8)  # nothing alive: uniform
     assert np.array_equal(np.bincount(idx, minlength=4), [2, 2, 2, 2])
+
+
+def _top_distinct_by_definition(particles, weights, num):
+    """Sort everything by (-w, index), keep each state vector's first occurrence, cycle if short."""
+    w = np.where(np.isnan(weights), -np.inf, weights)
+    order = np.lexsort((np.arange(len(w)), -w))
+    _, first = np.unique(particles[order], axis=0, return_index=True)
+    distinct = order[np.sort(first)]
+    return distinct[:num] if len(distinct) >= num else np.resize(distinct, num)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_top_distinct_matches_deduplicating_the_whole_sorted_set(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(300):
+        n, d = int(rng.integers(1, 200)), int(rng.integers(1, 6))
+        x = rng.integers(-2, 3, size=(n, d)).astype(float)  # many duplicate rows
+        x[rng.random((n, d)) < 0.2] = -0.0  # equal to 0.0 as a number, not as bytes
+        if rng.random() < 0.3:
+            x = rng.normal(size=(n, d))
+        w = rng.integers(0, 4, size=n).astype(float)  # many ties
+        w[rng.random(n) < 0.1] = np.nan
+        w[rng.random(n) < 0.1] = -np.inf
+        num = int(rng.integers(1, 2 * n + 2))
+        np.testing.assert_array_equal(top_distinct(x, w, num), _top_distinct_by_definition(x, w, num))
 
 
 # -- APF annealing ----------------------------------------------------------------------------

@@ -10,6 +10,7 @@ from ..profiling import (
     PEER_POSES,
     bench_measure,
     bench_track,
+    device_line,
     load_scene,
     machine,
 )
@@ -72,6 +73,7 @@ def run(args) -> int:
 
         jax.config.update("jax_enable_compilation_cache", False)
     host = machine()
+    print(device_line(), flush=True)
     records: list[dict] = []
     jobs = [(w, c) for w in widths for c in cams]
     bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths), desc="bench", unit="case")

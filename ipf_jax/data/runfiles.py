@@ -1,4 +1,4 @@
-"""Run-directory files: ``joints.csv``, ``poses.csv`` (appended + fsynced frame by frame), ``run.json``.
+"""Run-directory files: ``joints.csv``, ``poses.csv`` (appended and flushed frame by frame, fsynced with each checkpoint), ``run.json``.
 
 Rows are written with 6 decimals and ``nan`` for missing frames, so a run that is killed keeps
 every frame it finished, and a resumed run produces byte-identical files (see :mod:`.checkpoint`).
@@ -47,7 +47,11 @@ def write_rows(path: str | Path, columns: list[str], frames, time_s, values,
 
 
 class CsvAppender:
-    """Append rows to a CSV, flushing and fsyncing each one (crash-safe).
+    """Append rows to a CSV, flushing each one (a killed process leaves every row written).
+
+    :meth:`sync` puts the rows on disk (fsync): the tracker calls it before each checkpoint, whose
+    row count is what a resume keeps, so a checkpoint never counts rows a power cut could lose;
+    an fsync per row cost more than a frame's selection and prediction together.
 
     keep_rows : resume: keep the header and this many rows of the existing file, append after.
     lazy : create a new file only with its first row, so a run that fails before writing anything
@@ -84,10 +88,16 @@ class CsvAppender:
             self._start()
         self._fh.write(format_row(frame, time_s, values))
         self._fh.flush()
-        os.fsync(self._fh.fileno())
+
+    def sync(self) -> None:
+        """Every row written so far on disk."""
+        if self._fh is not None:
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
 
     def close(self) -> None:
         if self._fh is not None:
+            self.sync()
             self._fh.close()
 
 

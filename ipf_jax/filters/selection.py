@@ -12,7 +12,30 @@ import numpy as np
 def stable_order(weights: np.ndarray) -> np.ndarray:
     """Indices sorted by (-w, index): heaviest first, ties by original position, NaN last."""
     w = np.where(np.isnan(weights), -np.inf, weights)
-    return np.lexsort((np.arange(len(w)), -w))
+    return np.argsort(-w, kind="stable")
+
+
+def heaviest(weights: np.ndarray, num: int) -> np.ndarray:
+    """The first ``num`` or more entries of :func:`stable_order` (all ties at the ``num``-th weight
+    included), without sorting the rest: a partition finds the ``num``-th weight."""
+    w = np.where(np.isnan(weights), -np.inf, weights)
+    if num >= len(w):
+        return np.argsort(-w, kind="stable")
+    kth = np.partition(-w, num - 1)[num - 1]
+    cand = np.flatnonzero(-w <= kth)  # ascending index: a stable sort keeps ties in order
+    return cand[np.argsort(-w[cand], kind="stable")]
+
+
+def _first_distinct(rows: np.ndarray) -> np.ndarray:
+    """Positions of the first occurrence of each distinct row of finite (K, D) ``rows``, ascending.
+
+    Rows are compared as bytes (one opaque item per row, not D float columns); ``+ 0.0`` turns
+    -0.0 into 0.0 first, so byte equality is float equality for finite numbers.
+    """
+    packed = np.ascontiguousarray(rows + 0.0)
+    items = packed.view(np.dtype((np.void, packed.dtype.itemsize * packed.shape[1]))).ravel()
+    _, first = np.unique(items, return_index=True)
+    return np.sort(first)
 
 
 def top_distinct(particles: np.ndarray, weights: np.ndarray, num: int) -> np.ndarray:
@@ -20,13 +43,27 @@ def top_distinct(particles: np.ndarray, weights: np.ndarray, num: int) -> np.nda
 
     If fewer distinct particles exist, the distinct ones are cycled in weight order so the
     result always has ``num`` entries (fixed shapes downstream).
+
+    Only a prefix of the weight order is examined: the heaviest ``k`` particles (``k = num``, then
+    4x more while duplicates leave fewer than ``num`` distinct ones). The first occurrences within a
+    prefix are the first occurrences in the whole order, so the result is that of deduplicating the
+    whole sorted set.
     """
-    order = stable_order(weights)
-    _, first = np.unique(particles[order], axis=0, return_index=True)
-    distinct = order[np.sort(first)]  # first occurrence of each state, in weight order
-    if len(distinct) >= num:
-        return distinct[:num]
-    return np.resize(distinct, num)
+    particles = np.asarray(particles)
+    if not np.all(np.isfinite(particles)):  # NaN rows: the general (slow) float comparison
+        order = stable_order(weights)
+        _, first = np.unique(particles[order], axis=0, return_index=True)
+        distinct = order[np.sort(first)]
+        return distinct[:num] if len(distinct) >= num else np.resize(distinct, num)
+    k = max(int(num), 1)
+    while True:
+        cand = heaviest(weights, k)
+        distinct = cand[_first_distinct(particles[cand])]
+        if len(distinct) >= num:
+            return distinct[:num]
+        if len(cand) >= len(particles):
+            return np.resize(distinct, num)
+        k *= 4
 
 
 def systematic(rng_key: jax.Array, weights: np.ndarray, num_samples: int) -> np.ndarray:

@@ -130,8 +130,16 @@ def project_points(cam: CameraArrays, X: jnp.ndarray, xp=jnp) -> tuple[jnp.ndarr
     Returns uv : (..., 2) pixels, z : (...,) depth (metres), mag : (...,) local radial
     magnification of the distortion (used to scale projected radii).
     """
+    u, v, z, mag = project_xyz(cam, X[..., 0], X[..., 1], X[..., 2], xp)
+    return xp.stack([u, v], axis=-1), z, mag
+
+
+def project_xyz(cam: CameraArrays, x, y, z, xp=jnp):
+    """:func:`project_points` on coordinate arrays: (u, v, depth, magnification), each the
+    broadcast shape of ``x, y, z`` and the camera fields (see :func:`broadcast_cameras`)."""
+    X = (x, y, z)
     # R X + T written out: elementwise, so XLA fuses it with the rest (a dot product would not)
-    Xc = [cam.R[i, 0] * X[..., 0] + cam.R[i, 1] * X[..., 1] + cam.R[i, 2] * X[..., 2] + cam.T[i]
+    Xc = [cam.R[i, 0] * X[0] + cam.R[i, 1] * X[1] + cam.R[i, 2] * X[2] + cam.T[i]
           for i in range(3)]
     z = Xc[2]
     zs = xp.where(z > Z_NEAR, z, Z_NEAR)
@@ -149,7 +157,18 @@ def project_points(cam: CameraArrays, X: jnp.ndarray, xp=jnp) -> tuple[jnp.ndarr
     xd, yd = xd / s, yd / s
     u = cam.K[0, 0] * xd + cam.K[0, 1] * yd + cam.K[0, 2]
     v = cam.K[1, 1] * yd + cam.K[1, 2]
-    return xp.stack([u, v], axis=-1), z, radial
+    return u, v, z, radial
+
+
+def broadcast_cameras(cams: CameraArrays, ndim: int) -> CameraArrays:
+    """Stacked cameras whose fields index like ONE camera's (``K[0, 0]``, ``dist[i]``...) and
+    broadcast as (C, 1 x ``ndim``): all cameras projected in one batched step by
+    :func:`project_xyz` on (...) point arrays of ``ndim`` axes."""
+    def move(a, own):
+        a = jnp.moveaxis(jnp.asarray(a), 0, own)  # camera axis behind the field's own axes
+        return a.reshape(a.shape + (1,) * ndim)
+    return CameraArrays(move(cams.K, 2), move(cams.dist, 1), move(cams.R, 2), move(cams.T, 1),
+                        move(cams.r_max, 0))
 
 
 def project_spheres(cam: CameraArrays, centres: jnp.ndarray, radii: jnp.ndarray, xp=jnp):

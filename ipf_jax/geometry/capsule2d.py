@@ -29,7 +29,13 @@ def capsule_outline(xp, c0, r0, c1, r1, drawn):
     drawn : (...,) bool (False: behind the camera).  Returns (..., 15).
     """
     # x and y as separate arrays until the end: XLA's CPU loops are slow on trailing axes of 2
-    x0, y0, x1, y1 = c0[..., 0], c0[..., 1], c1[..., 0], c1[..., 1]
+    fields = outline_fields(xp, c0[..., 0], c0[..., 1], r0, c1[..., 0], c1[..., 1], r1, drawn)
+    return xp.stack(fields, axis=-1)
+
+
+def outline_fields(xp, x0, y0, r0, x1, y1, r1, drawn) -> list:
+    """The 15 fields of :func:`capsule_outline`, each a float32 array of the inputs' broadcast
+    shape (the scorer stacks them on a leading axis, keeping the particles on the last)."""
     dx, dy = x1 - x0, y1 - y0
     length = xp.sqrt(dx * dx + dy * dy)
     quad_ok = (length > xp.abs(r0 - r1) + 1e-3) & (length > 1e-3)
@@ -47,4 +53,4 @@ def capsule_outline(xp, c0, r0, c1, r1, drawn):
               x1 + r1 * mx, y1 + r1 * my,  # T1-
               x1 + r1 * px, y1 + r1 * py,  # T1+
               flag]
-    return xp.stack([xp.broadcast_to(f, flag.shape) for f in fields], axis=-1).astype(xp.float32)
+    return [xp.broadcast_to(f, flag.shape).astype(xp.float32) for f in fields]

@@ -1,15 +1,20 @@
 """Forward kinematics in JAX: one particle's 31 DOF -> 19 points and 17 capsules (world, metres).
 
 Written for ONE particle; the kinematic tree of :mod:`ipf_jax.body.model` is unrolled at trace time.
-Batch with ``jax.vmap`` at a factory boundary (see :mod:`ipf_jax.likelihood.scorer`). The same code also
-runs on NumPy arrays with leading particle axes (``xp=numpy``): the vectorised NumPy baseline
-(:mod:`ipf_jax.reference.scanline`) uses it, while :mod:`ipf_jax.geometry.host` stays the
-independent oracle.
+The same code also runs on NumPy arrays with leading particle axes (``xp=numpy``): the vectorised
+NumPy baseline (:mod:`ipf_jax.reference.scanline`) uses it, while :mod:`ipf_jax.geometry.host` stays
+the independent oracle.
+
+:func:`capsule_ends` is the scorer's batched form (particle axis last, JAX): each joint's sine and
+cosine computed once for the whole batch, each body frame's axes computed once (materialised, so
+XLA does not recompute a frame's chain of rotations for every point placed in it), and each
+distinct capsule end placed once (the end of a thigh is the start of its shank).
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -33,19 +38,33 @@ class Pose3D(NamedTuple):
     seg_r: jnp.ndarray
 
 
-def _turn(cols, axis: str, angle, xp):
-    """Columns of ``R @ R_axis(angle)``: an elementary rotation only mixes two columns.
+def _plus(a, x, b, y):
+    """a x + b y for vectors as arrays (..., 3) or as tuples of coordinate arrays."""
+    if isinstance(x, tuple):
+        return tuple(a * xi + b * yi for xi, yi in zip(x, y))
+    return a * x + b * y
+
+
+def _minus(a, x, b, y):
+    """a x - b y (see :func:`_plus`)."""
+    if isinstance(x, tuple):
+        return tuple(a * xi - b * yi for xi, yi in zip(x, y))
+    return a * x - b * y
+
+
+def _turn(cols, axis: str, c, s):
+    """Columns of ``R @ R_axis(angle)`` from the angle's cosine ``c`` and sine ``s``: an elementary
+    rotation only mixes two columns.
 
     Working on columns with elementwise arithmetic (no 3x3 dot products) keeps the unrolled tree a
     handful of fusible loops: it compiles in seconds and vectorises over particles.
     """
-    c, s = xp.cos(angle), xp.sin(angle)
     c0, c1, c2 = cols
     if axis == "x":
-        return c0, c * c1 + s * c2, c * c2 - s * c1
+        return c0, _plus(c, c1, s, c2), _minus(c, c2, s, c1)
     if axis == "y":
-        return c * c0 - s * c2, c1, s * c0 + c * c2
-    return c * c0 + s * c1, c * c1 - s * c0, c2
+        return _minus(c, c0, s, c2), c1, _plus(s, c0, c, c2)
+    return _plus(c, c0, s, c1), _minus(c, c1, s, c0), c2
 
 
 def _coords(coords, shape_values):
@@ -65,7 +84,7 @@ def _apply(cols, origin, coords, shape_values):
     p = origin
     for col, v in zip(cols, _coords(coords, shape_values)):
         if v is not None:
-            p = p + col * v
+            p = tuple(pi + ci * v for pi, ci in zip(p, col)) if isinstance(p, tuple) else p + col * v
     return p
 
 
@@ -87,7 +106,8 @@ def forward_kinematics(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarra
             cols, origin = pcols, _apply(pcols, porigin, f.origin, shape_values)
         for axis, sign, dof in f.rotation:
             i = DOF_INDEX[dof]
-            cols = _turn(cols, axis, sign * q[..., i:i + 1], xp)  # (..., 1): broadcasts over xyz
+            angle = sign * q[..., i:i + 1]  # (..., 1): broadcasts over xyz
+            cols = _turn(cols, axis, xp.cos(angle), xp.sin(angle))
         world[f.name] = (cols, origin)
 
     def place(frame, coords):
@@ -105,3 +125,48 @@ def forward_kinematics(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarra
     seg_r = shape_values[r_idx]  # (S, 2)
     assert points.shape[-2:] == (NUM_POINTS, 3)
     return Pose3D(points, seg_a, seg_b, seg_r)
+
+
+def _end_key(frame: str, coords) -> tuple:
+    """A capsule end as (frame, position), a frame's origin written in its parent's frame."""
+    f = FRAMES_BY_NAME[frame]
+    if f.parent is not None and all(c == 0 for c in coords):
+        return _end_key(f.parent, f.origin)
+    return frame, tuple(coords)
+
+
+FRAMES_BY_NAME = {f.name: f for f in FRAMES}
+#: the distinct capsule end centres, (frame, position) each, in order of first use
+CAPSULE_ENDS = tuple(dict.fromkeys(_end_key(s.frame, e) for s in SEGMENTS for e in (s.a, s.b)))
+#: (S, 2) index into :data:`CAPSULE_ENDS` of each segment's ends a and b
+SEGMENT_ENDS = np.array([[CAPSULE_ENDS.index(_end_key(s.frame, e)) for e in (s.a, s.b)]
+                         for s in SEGMENTS])
+#: (S, 2) index into the shape values of each segment's end radii
+SEGMENT_RADII = np.array([[SHAPE_INDEX[s.r_a], SHAPE_INDEX[s.r_b]] for s in SEGMENTS])
+
+
+def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -> jnp.ndarray:
+    """Batched FK, particle axis last (JAX): (D, B) -> (3, K, B) world centres of the K distinct
+    capsule ends (:data:`CAPSULE_ENDS`; :data:`SEGMENT_ENDS` maps segments onto them).
+
+    shape_values : (P,) one body for all, or (P, B) a body per particle.  up : (3, 3).
+    The operations on each number are those of :func:`forward_kinematics` (compiled into other
+    loops, so a result can differ from it in the last bit).
+    """
+    angles = jnp.stack([sign * q_t[DOF_INDEX[dof]] for f in FRAMES for _, sign, dof in f.rotation])
+    cos, sin = jax.lax.optimization_barrier((jnp.cos(angles), jnp.sin(angles)))  # once per joint
+    world = {}
+    k = 0
+    for f in FRAMES:
+        if f.parent is None:
+            cols = tuple(tuple(up[r, c] for r in range(3)) for c in range(3))  # columns, by coordinate
+            origin = (q_t[0], q_t[1], q_t[2])
+        else:
+            pcols, porigin = world[f.parent]
+            cols, origin = pcols, _apply(pcols, porigin, f.origin, shape_values)
+        for axis, _, _ in f.rotation:
+            cols = _turn(cols, axis, cos[k], sin[k])
+            k += 1
+        world[f.name] = jax.lax.optimization_barrier((cols, origin))  # each frame's axes once
+    ends = [jnp.stack(_apply(*world[frame], coords, shape_values)) for frame, coords in CAPSULE_ENDS]
+    return jnp.stack(ends, axis=1)  # every end moves with the root: (3, B) each

@@ -16,8 +16,10 @@ Definitions (also in docs/formats.md):
 :class:`Scorer` owns the compiled functions and runs them in three stages per chunk of particles,
 because fused into one program XLA recomputes the row intervals once per word:
 
-1. geometry (all cameras): FK, projection, capsule records, and each capsule's extent in each
-   camera, reduced over the chunk (:func:`ipf_jax.likelihood.raster.segment_extent`);
+1. geometry (all cameras, one batched program with the particle axis last): FK of the distinct
+   capsule ends, all of them projected into all cameras in one step, capsule records (15, S, B)
+   per camera, and each capsule's extent in each camera, reduced over the chunk
+   (:func:`ipf_jax.likelihood.raster.segment_extent`);
 2. row intervals of every capsule on its window (one camera per call);
 3. bit words, union, AND with the mask, popcount (one camera per call).
 
@@ -42,9 +44,9 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ..body.shape import BodyShape
 from ..errors import IPFError, require
-from ..geometry.camera import Camera, CameraArrays, project_spheres, stack_cameras
-from ..geometry.capsule2d import capsule_outline
-from ..geometry.kinematics import forward_kinematics
+from ..geometry.camera import Z_NEAR, Camera, broadcast_cameras, project_xyz, stack_cameras
+from ..geometry.capsule2d import outline_fields
+from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from .raster import (
     WORD,
     Roi,
@@ -105,43 +107,54 @@ def make_observation(masks: list[np.ndarray]) -> Observation:
     return Observation(words, fg, bbox, sizes)
 
 
-def project_capsules(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray,
-                     cams: CameraArrays) -> jnp.ndarray:
-    """One particle -> (C, S, 15) float32 capsule records in every camera."""
-    pose = forward_kinematics(q, shape_values, up)
+def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
+    """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
+    last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P).
 
-    def one_camera(cam):
-        uv0, r0, in0 = project_spheres(cam, pose.seg_a, pose.seg_r[:, 0])
-        uv1, r1, in1 = project_spheres(cam, pose.seg_b, pose.seg_r[:, 1])
-        return capsule_outline(jnp, uv0, r0, uv1, r1, in0 & in1)
+    Each distinct capsule end is placed once (:func:`ipf_jax.geometry.kinematics.capsule_ends`)
+    and projected into all cameras in one step; the intermediate results are materialised
+    (``optimization_barrier``), as fused into one loop XLA would recompute them for every field.
+    """
+    sv = shape_values.T  # (P,) or (P, B)
+    ends = jax.lax.optimization_barrier(capsule_ends(q.T, sv, up))  # (3, K, B)
+    cam = broadcast_cameras(cams, 2)
+    u, v, z, mag = jax.lax.optimization_barrier(project_xyz(cam, ends[0], ends[1], ends[2]))
+    f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])  # (C, 1, 1)
+    radii = sv[SEGMENT_RADII]  # (S, 2) or (S, 2, B)
 
-    return jax.vmap(one_camera)(cams)
+    def disc(end):
+        idx, r = SEGMENT_ENDS[:, end], radii[:, end].reshape(len(SEGMENT_ENDS), -1)  # (S, 1|B)
+        depth = z[:, idx]
+        return u[:, idx], v[:, idx], f * r / jnp.maximum(depth, Z_NEAR) * mag[:, idx], depth > Z_NEAR
+
+    (x0, y0, r0, in0), (x1, y1, r1, in1) = disc(0), disc(1)  # (C, S, B) each
+    return jnp.stack(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1), axis=1)
 
 
 # -- the compiled stages (B particles; batched here, once) --------------------------------------
 def _geometry_impl(q, shape_values, up, cams, long_side):
-    """Stage 1: (B, D) particles -> C arrays (B, S, 15) of capsule records, one per camera, and
+    """Stage 1: (B, D) particles -> C arrays (15, S, B) of capsule records, one per camera, and
     (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max).
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
-    shape_axis = 0 if shape_values.ndim == 2 else None
-    caps = jax.vmap(project_capsules, in_axes=(0, shape_axis, None, None))(q, shape_values, up, cams)
-    ext = segment_extent(jnp, caps, long_side)  # (B, C, S, 4)
-    union = jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
-                       ext[..., 3].max(0)], -1)
-    return tuple(caps[:, c] for c in range(caps.shape[1])), union
+    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))
+    ext = segment_extent(jnp, jnp.moveaxis(caps, 1, -1), long_side)  # (C, S, B, 4)
+    union = jnp.stack([ext[..., 0].min(2), ext[..., 1].max(2), ext[..., 2].min(2),
+                       ext[..., 3].max(2)], -1)
+    return tuple(caps[c] for c in range(caps.shape[0])), union
 
 
 def _intervals_impl(caps, win_rows, height, width, n_win, q, long_side):
-    """Stage 2 (scanline), one camera: (B, S, 15) records -> (B, S, R) packed row intervals."""
-    return jax.vmap(lambda c: interval_stage(c, win_rows, n_win, q, long_side, height, width))(caps)
+    """Stage 2 (scanline), one camera: (15, S, B) records -> (B, S, R) packed row intervals."""
+    return jax.vmap(lambda c: interval_stage(c.T, win_rows, n_win, q, long_side, height, width),
+                    in_axes=2)(caps)
 
 
 def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
     """Stage 2 (dense), one camera: the same packed intervals by per-pixel tests."""
-    return jax.vmap(lambda c: dense_interval_stage(c, win_rows, win_words, n_win, n_win_words, q,
-                                                   long_side, height, width))(caps)
+    return jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words, q,
+                                                   long_side, height, width), in_axes=2)(caps)
 
 
 def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):

@@ -4,7 +4,7 @@ estimate -> check, then write the rows.
 :meth:`Tracker.track_frame` is one frame, ``(state, frame) -> (state, FrameRecord)``, and reads as
 the paper's stages; :class:`~ipf_jax.tracking.state.TrackState` is everything carried from frame to
 frame and is the checkpoint. :meth:`Tracker.run` only reads frames, writes rows (appended and
-fsynced per frame), checkpoints every K frames and shows progress, so ``resume=True`` continues
+flushed per frame, fsynced before each checkpoint), checkpoints every K frames and shows progress, so ``resume=True`` continues
 exactly where a run stopped.
 
 Per frame: every camera's mask is resized once to the scoring resolution; a camera with an empty
@@ -377,6 +377,8 @@ class Tracker:
                     write_json_atomic(out_dir / "shape.json", self.shape_doc(state))
                 if state.next_index % self.settings.checkpoint_every == 0 \
                         or state.next_index == len(self.frames):
+                    joints_csv.sync()  # the rows the checkpoint counts are on disk first
+                    poses_csv.sync()
                     track_state.save(out_dir, state, key)
                     write_json_atomic(out_dir / "run.json",
                                       self.run_doc(state, time.perf_counter() - t_start))
