@@ -82,6 +82,11 @@ def main(argv=None) -> int:
             if sel.any():
                 print(f"| {name} {label} | {int(sel.sum())} | "
                       + " | ".join(f"{np.percentile(s[sel, k], p):.3f}" for p in pct) + " |")
+    if args.json:
+        args.json.write_text(json.dumps({"sets": per_set}, indent=1))
+    if not good.any():
+        print("\nno well-tracked frames: no levels")
+        return 0
     levels = [np.floor(np.percentile(s[good, k], args.percentile) / 0.05) * 0.05 for k in range(2)]
     below = (s[:, 0] < levels[0]) | (s[:, 1] < levels[1])
     print(f"\nlevels at p{args.percentile:g} of the good frames, rounded down to 0.05: explained "

@@ -13,8 +13,9 @@ When the track is lost (:mod:`.loss`, or the relative confidence collapses) the 
 
 The best result found is returned with the evaluations it cost; the tracker accepts it only if it
 explains the silhouettes better (a higher weight) than the pose it replaces. The cost is bounded:
-one local search (about :data:`LOCAL` grid plus refinement, ~4000 evaluations) and at most one
-global search per attempt, and while lost an attempt every ``retry`` frames.
+one local search (:data:`LOCAL`, ~6000 evaluations) and at most one global search
+(:data:`GLOBAL`, ~17000) per attempt, and while lost an attempt every ``--recovery-retry`` frames;
+every attempt's evaluations are recorded in ``run.json``.
 """
 from __future__ import annotations
 
@@ -32,6 +33,11 @@ from .initialise import InitSettings, Measure, floor_points, initialise, refine_
 #: the local search's budget: few modes, one refinement round, a short compass search
 LOCAL = InitSettings(headings=8, position_steps=1, modes=2, keep=8, refine_rounds=1,
                      refine_particles=128, pattern_keep=4, pattern_sweeps=3, posture_modes=0)
+#: the global search's budget: the initialisation's grid (16 headings, 3 x 3 positions, walking
+#: configurations and postures) with three modes refined in two rounds (~17000 evaluations,
+#: against ~70000 for the first frame's search, which also looks for the height)
+GLOBAL = InitSettings(headings=16, position_steps=1, modes=2, keep=16, refine_rounds=2,
+                      refine_particles=256, pattern_keep=4, pattern_sweeps=4, posture_modes=1)
 #: headings tried around the last good one (degrees); 180 for a person who turned round
 LOCAL_TURNS_DEG = (-60.0, -30.0, 0.0, 30.0, 60.0, 180.0)
 

@@ -65,11 +65,11 @@ from ..likelihood.scorer import (
 from . import loss
 from . import state as track_state
 from .contact import FloorContact
-from .initialise import floor_points, initialise
+from .initialise import InitSettings, floor_points, initialise
 from .options import settings_doc
 from .loss import Coverage, coverage
 from .origin import FrameAnchor, observe_anchor, root_shift
-from .recovery import recover
+from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc
 from .state import HISTORY, FrameRecord, TrackState
@@ -356,6 +356,12 @@ class Tracker:
         return state.filter.particles[best_index(state.filter.weights)]
 
     @property
+    def recovery_search(self) -> InitSettings:
+        """The global recovery's search: :data:`.recovery.GLOBAL`, or a lighter ``--init-budget``."""
+        init = self.settings.init
+        return GLOBAL if init == init_settings() else init
+
+    @property
     def levels(self) -> loss.LossLevels:
         return loss.LossLevels(self.settings.lost_explained, self.settings.lost_covered)
 
@@ -387,7 +393,7 @@ class Tracker:
         try:
             res = recover(self.frame_key(frame, 2), [seen.masks[i] for i in active],
                           [self.cameras[i] for i in active], self.U, self.limits, state.shape,
-                          measure, still_lost, state.last_good, global_settings=self.settings.init)
+                          measure, still_lost, state.last_good, global_settings=self.recovery_search)
         except IPFError as e:  # a recovery attempt that cannot run keeps the track
             res = None
             info["reinit_error"] = e.message
