@@ -40,7 +40,7 @@ def run_shares(run_dir: Path, root: Path) -> tuple[np.ndarray, np.ndarray]:
     ds = open_dataset(root / run_dir.name)
     cams, scales = scoring_cameras(ds.cameras, run["settings"]["resolution"])
     U = up_rotation(run["up_axis"])
-    scorer = Scorer(cams, load_shape(run_dir / "shape.json"), U)
+    scorer = Scorer(cams, load_shape(run_dir / "shape.json"), U, chunk=8)  # one pose per call
     frames = read_table(run_dir / "poses.csv", "poses file")[1][:, 0].astype(int)
     ok = np.isfinite(read_table(run_dir / "poses.csv", "poses file")[1][:, 2:]).all(1)
     poses = read_pose_rows(run_dir / "poses.csv") if ok.all() else None

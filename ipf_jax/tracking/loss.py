@@ -12,12 +12,22 @@ A frame *fails* when, in the camera where it is lowest, either share falls below
 (:mod:`.recovery`) and, when that does not bring the shares back, declares the frame ``lost``.
 
 The levels were calibrated with ``benchmarks/loss_levels.py`` on the default runs of the visible
-renders (``../shared/data/mocap_walk_render``: the five clean 4-camera walks and the four 4-camera
-sit-to-stand sets, tracked by ``main`` at 29413d0): over frames whose mean 12-joint error is under
-100 mm (well tracked) the lowest per-camera shares were taken, and each level sits below the
-0.5th percentile of those frames' values (rounded down to 0.05), so a well-tracked frame fails
-about once in 200 frames and :data:`PATIENCE` failing frames in a row are needed. The script's
-table (good frames' percentiles against frames above 200 mm) is in ``benchmarks/README.md``.
+4-camera renders (``../shared/data/mocap_walk_render``: the ten walks, clean and noisy, and the
+four sit-to-stand sets, tracked by ``main`` at 29413d0): every frame's estimate was scored again
+and its lowest per-camera shares compared with its mean 12-joint error. Each level is the 0.5th
+percentile of the well-tracked frames' (error < 100 mm) shares, rounded down to 0.05::
+
+    share       frames              p0.5   p1     p5     p25    p50
+    explained   good (< 100 mm) 394  0.625  0.632  0.657  0.736  0.782
+    explained   lost (> 200 mm) 136  0.469  0.485  0.523  0.563  0.596
+    covered     good (< 100 mm) 394  0.726  0.742  0.772  0.837  0.878
+    covered     lost (> 200 mm) 136  0.636  0.643  0.662  0.744  0.783
+
+    python benchmarks/loss_levels.py RUNS   (RUNS: accuracy.py's OUT/runs of those sets)
+
+At explained 0.60 and covered 0.70 none of the 394 well-tracked frames fails and 74 of the 136
+lost ones do (the others are mostly a body turned round or with its legs swapped, which the
+silhouettes cannot show). Every walk frame passes, so the test leaves walking runs alone.
 """
 from __future__ import annotations
 
@@ -29,8 +39,8 @@ import numpy as np
 class LossLevels(NamedTuple):
     """Lowest acceptable shares, per camera (see module doc)."""
 
-    explained: float = 0.55
-    covered: float = 0.55
+    explained: float = 0.60
+    covered: float = 0.70
 
 
 LEVELS = LossLevels()
