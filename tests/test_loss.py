@@ -110,3 +110,29 @@ def test_local_recovery_finds_a_posture_from_a_standing_pose(posture):
     assert res.stage == "local" and not still_lost(best)
     knee = np.rad2deg(best[DOF_INDEX["left_knee_flexion"]])
     assert knee > 60, knee  # a bent-knee posture, not a standing one
+
+
+def test_initialisation_finds_a_seated_person():
+    """The first frame shows someone seated: the postures beyond walking seed the search."""
+    from ipf_jax.tracking.initialise import initialise
+
+    cams = syn.ring_cameras(3, width=160, height=120, focal_px=150)
+    truth = place_on_floor(posture_pose(*POSTURES_DEG["sit"], heading=-1.0), SHAPE.values, U)
+    masks = list(syn.render_masks(truth[None], SHAPE, cams)[0])
+    obs = make_observation(masks)
+    scorer = Scorer(cams, SHAPE, U, chunk=256)
+
+    def measure(p, shape=None):
+        if shape is not None:
+            scorer.set_shape(shape)
+        return weights_from_counts(scorer.counts(p, obs), obs.active)[0]
+
+    limits = load_limits()
+    res = initialise(np.array([0, 3], np.uint32), masks, cams, U, limits, SHAPE, measure,
+                     fixed_shape=SHAPE, settings=FAST_INIT._replace(posture_modes=1))
+    best = res.particles[np.nanargmax(res.weights)]
+    assert np.rad2deg(best[DOF_INDEX["left_knee_flexion"]]) > 60
+    assert np.rad2deg(best[DOF_INDEX["right_hip_flexion"]]) > 60
+    walking_only = initialise(np.array([0, 3], np.uint32), masks, cams, U, limits, SHAPE, measure,
+                              fixed_shape=SHAPE, settings=FAST_INIT)
+    assert np.nanmax(res.weights) > np.nanmax(walking_only.weights)
