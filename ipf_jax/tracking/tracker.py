@@ -236,14 +236,13 @@ class Tracker:
 
     def coverage_of(self, pose: np.ndarray, obs: Observation, shape: BodyShape, log: list) -> Coverage:
         """The per-camera shares of ``pose`` (:mod:`.loss`), from its counts in ``log`` when this
-        frame scored it (it almost always did), else scored once more."""
+        frame scored it (it almost always did), else scored once more (appended to ``log``)."""
         for particles, counts in reversed(log):
             hit = np.flatnonzero((particles == pose).all(1))
             if hit.size:
                 return coverage(counts[hit[0]], obs.active)
-        if shape is not self.scorer.shape:
-            self.scorer.set_shape(shape)
-        return coverage(self.scorer.counts(pose[None], obs)[0], obs.active)
+        self.measure(obs, shape, log)(pose[None])
+        return coverage(log[-1][1][0], obs.active)
 
     def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
         return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
@@ -258,20 +257,22 @@ class Tracker:
                           [i + 1 for i in active], self.dataset.path)
 
     def initialise(self, frame: int, obs: Observation, small: list[np.ndarray],
-                   shape: BodyShape | None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
-        """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation."""
+                   shape: BodyShape | None, log: list | None = None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
+        """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation.
+        ``log``: see :meth:`measure`."""
         s = self.settings
         active = [i for i in range(len(small)) if obs.active[i]]
         if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
-            w = self.measure(obs, shape)(q)
+            w = self.measure(obs, shape, log)(q)
             return q, w, shape, 1
         if shape is None and s.shape_file is not None:  # a shape file fixes the body
             shape = self.base_shape
         res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
                          [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
-                         self.measure(obs), height_m=s.height_m, fixed_shape=shape, settings=s.init)
+                         self.measure(obs, log=log), height_m=s.height_m, fixed_shape=shape,
+                         settings=s.init)
         return res.particles, res.weights, res.shape, res.evaluations
 
     def calibrate(self, frame: int, q: np.ndarray, w: np.ndarray, shape: BodyShape):
@@ -296,11 +297,11 @@ class Tracker:
                  if self.settings.origin_shift else np.zeros(3))
         return here, shift
 
-    def start(self, state: TrackState, frame: int, seen: Seen) -> TrackState:
+    def start(self, state: TrackState, frame: int, seen: Seen, log: list | None = None) -> TrackState:
         """The automatic initialisation (or the given initial pose) on the first frame seen."""
         s = self.settings
         self.check_view(seen.obs, seen.masks)
-        q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None)
+        q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None, log=log)
         doc = None
         if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
             q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
@@ -333,13 +334,17 @@ class Tracker:
                 state, status = self.reinitialise(state, frame, seen, w_best, info)
                 conf = 1.0
             return state, status, conf
+        scored = self.scorer.evaluations
         cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
+        state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
         bad = state.bad_streak + 1 if loss.fails(cov, self.levels) else 0
         due = state.next_index - state.last_attempt >= s.recovery_retry
         if status == "tracked" and (low >= s.confidence_patience or (bad >= loss.PATIENCE and due)):
             trigger = "loss test" if bad >= loss.PATIENCE else "confidence"
             state, status, log = self.recover(state, frame, seen, w_best, info, trigger)
+            scored = self.scorer.evaluations
             cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
+            state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
             bad = bad if loss.fails(cov, self.levels) else 0
             conf = 1.0
         state = state._replace(bad_streak=bad)
@@ -423,7 +428,7 @@ class Tracker:
         state = state._replace(anchor=anchor)
         log: list = []
         if state.filter is None:
-            state, status, evals = self.start(state, frame, seen), "init", 0
+            state, status, evals = self.start(state, frame, seen, log), "init", 0
         else:
             (state, evals), status = self.step(state, frame, seen, shift, log), "tracked"
         state, status, conf = self.check(state, frame, seen, status, info, log)
