@@ -173,18 +173,39 @@ def test_up_axis_sports2d(sports2d_toml):
     assert detect_up_axis(read_toml(sports2d_toml)) == "+z"
 
 
-def test_up_axis_single_ceiling_camera_uses_the_silhouette(shared_data):
-    """One bodytrack ceiling camera (mounted rolled): only the person's long axis says which way is up."""
+def test_up_axis_single_camera_from_its_orientation(shared_data):
+    """One bodytrack ceiling camera (mounted upside down, tilted down): its image's vertical says
+    which axis is up, its height which way; a seated person on the first frame changes nothing."""
     from ipf_jax.data.silhouette import read_mask
 
     root = shared_data("mocap_walk_render/rajagopal_walk_clean_1cam")
     cams = read_calibration(root / "CALIB")
     assert detect_up_axis(cams, [read_mask(root / "FG1" / "image0000.png")]) == "+z"
-    # and each single bodytrack camera on the real sequenceB_2 masks
+    for name in ("sub4_sts_noisy_1cam", "sub4_sts_weaklegs_noisy_1cam"):  # seated on frame 0
+        root = shared_data(f"mocap_walk_render/{name}")
+        assert detect_up_axis(read_calibration(root / "CALIB"),
+                              [read_mask(root / "FG1" / "image0000.png")]) == "+z", name
     bt = shared_data("parsec_bodytrack/sequenceB_2")
-    for k in range(1, 5):
+    for k in (1, 3, 4):
         cam = read_calibration(bt / "CALIB" / f"Camera{k}.cal")
+        assert detect_up_axis(cam) == "+z", k
         assert detect_up_axis(cam, [read_mask(bt / f"FG{k}" / "image0000.bmp")]) == "+z", k
+
+
+def test_up_axis_undecidable_is_one_error_asking_for_up(shared_data):
+    """Camera 2 of sequenceB_2 is rolled on its side: alone, its orientation says y, the standing
+    person's silhouette z; a camera tilted 45 degrees cannot say either. Both stop, naming --up."""
+    from ipf_jax.data.silhouette import read_mask
+    from ipf_jax.viz.synthetic import look_at_camera
+
+    bt = shared_data("parsec_bodytrack/sequenceB_2")
+    cam = read_calibration(bt / "CALIB" / "Camera2.cal")
+    with pytest.raises(IPFError, match="--up"):
+        detect_up_axis(cam, [read_mask(bt / "FG2" / "image0000.bmp")])
+    tilted = look_at_camera(np.array([3.0, 0.0, 3.0]), np.array([0.0, 0.0, 0.0]), width=160,
+                            height=120, focal_px=150)
+    with pytest.raises(IPFError, match="give it with --up"):
+        detect_up_axis([tilted])
 
 
 # --- projection against OpenCV -------------------------------------------------------------------

@@ -101,15 +101,16 @@ def test_automatic_initialisation_runs_once_and_seeds_every_filter(walk, tmp_pat
     searched = []
     original = Tracker.initialise
 
-    def search(self, frame, obs, small, height):  # stands in for the (costly) automatic search
+    def search(self, frame, obs, small, height, log=None):  # stands in for the automatic search
         if self.settings.init_pose is not None:
-            return original(self, frame, obs, small, height)
+            return original(self, frame, obs, small, height, log)
         searched.append(frame)
         q = np.stack([walk["q"][0], walk["q"][1]])
         return q, np.array([2.0, 5.0]), default_shape(1.70), 1234  # what Tracker.initialise returns
 
     monkeypatch.setattr(Tracker, "initialise", search)
-    res = compare(ds, tmp_path, ["sir", "apf"], 200, progress=False, settings=TrackSettings(chunk=256))
+    res = compare(ds, tmp_path, ["sir", "apf"], 200, progress=False,
+                  settings=TrackSettings(chunk=256, loss_test=False))  # no recovery on frame 1
     assert searched == [0]  # once, on the first frame, for every filter
     assert res.doc["initial_pose"] == "automatic, run once" and res.doc["init_evaluations"] == 1234
     for n in ("sir", "apf"):

@@ -1,4 +1,5 @@
-"""Named poses and floor contact: standing/stride/swing configurations placed on the floor."""
+"""Named poses and floor contact: standing/stride/swing configurations and the postures beyond
+walking (bending, crouching, sitting, rising), placed on the floor."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,6 +15,33 @@ LEG_CONFIGS_DEG: tuple[tuple[float, float, float, float], ...] = (
     (20, 50, -5, 5),  # left leg swinging
     (-5, 5, 20, 50),  # right leg swinging
 )
+
+#: Postures beyond walking for initialisation and recovery: (trunk flexion, hip flexion, knee
+#: flexion, ankle dorsiflexion) in degrees, both sides alike, the pelvis upright. Sitting is the
+#: seat height of a chair (thighs level, shanks vertical): a chair in the silhouette is not
+#: modelled, the body is fitted around it.
+POSTURES_DEG: dict[str, tuple[float, float, float, float]] = {
+    "bend": (60, 15, 5, 0),  # bending forward from the hips, knees nearly straight
+    "crouch": (45, 110, 125, 20),  # squatting, heels down as far as the ankle allows
+    "sit": (10, 90, 90, 0),  # seated upright
+    "rise": (45, 70, 70, 10),  # leaning forward off a chair seat
+}
+
+
+def posture_pose(trunk: float, hip: float, knee: float, ankle: float, heading: float = 0.0) -> np.ndarray:
+    """(D,) a symmetric posture from its trunk, hip, knee and ankle flexions (degrees, see
+    :data:`POSTURES_DEG`); hands forward of the knees as when sitting or crouching."""
+    q = np.zeros(NUM_DOF)
+    q[DOF_INDEX["root_yaw"]] = heading
+    q[DOF_INDEX["trunk_flexion"]] = np.deg2rad(trunk)
+    for side in ("left", "right"):
+        q[DOF_INDEX[f"{side}_hip_flexion"]] = np.deg2rad(hip)
+        q[DOF_INDEX[f"{side}_knee_flexion"]] = np.deg2rad(knee)
+        q[DOF_INDEX[f"{side}_ankle_dorsiflexion"]] = np.deg2rad(ankle)
+        q[DOF_INDEX[f"{side}_shoulder_flexion"]] = np.deg2rad(min(0.5 * hip, 45.0))
+        q[DOF_INDEX[f"{side}_shoulder_abduction"]] = np.deg2rad(8.0)
+        q[DOF_INDEX[f"{side}_elbow_flexion"]] = np.deg2rad(30.0)
+    return q
 
 
 def gait_pose(hip_l: float, knee_l: float, hip_r: float, knee_r: float, heading: float = 0.0) -> np.ndarray:

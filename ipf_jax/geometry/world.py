@@ -7,11 +7,18 @@ make it). Detection:
 
 * **which axis**: with three or more cameras spread around a room, their centres lie near a
   horizontal plane, so the axis closest to that plane's normal is vertical. With one or two
-  cameras (or cameras not spread out) people are: the long axis of each silhouette points at the
-  image of the vertical through the person, i.e. along the line to the up axis's vanishing point.
-  Without masks the cameras' image 'up' direction is the last resort (right for level cameras,
-  wrong for ceiling cameras mounted upside down) - pass ``--up`` then.
-* **which sign**: the cameras are above the floor.
+  cameras (or cameras not spread out) each camera's own orientation says it: a camera level or
+  tilted down (or mounted upside down, as ceiling cameras often are) has the vertical close to
+  its image's vertical direction, so the world axis that direction is clearly closest to is up.
+  A camera tilted about 45 degrees, or cameras that disagree, cannot decide: :class:`IPFError`
+  asking for ``--up``. (A camera looking straight down is taken for a level one: give ``--up``
+  for a single ceiling camera pointing at the floor.) None of this
+  needs the person standing. Given masks of a frame, a silhouette that is long and thin along
+  another axis's image direction while hardly along the chosen one (a standing person seen by a
+  camera rolled on its side) vetoes the choice with the same error, rather than a silent wrong
+  axis; a seated or crouching person is never that clear, so it never vetoes a right choice.
+* **which sign**: the cameras are above the floor (or, with camera centres at the floor's
+  height, a camera's image 'up' points up).
 """
 from __future__ import annotations
 
@@ -82,18 +89,53 @@ def _silhouette_axis_scores(cameras: list[Camera], masks: list[np.ndarray]) -> n
     return total / used if used else None
 
 
-def _image_up_scores(cameras: list[Camera]) -> np.ndarray:
-    return np.abs(np.mean([cam.R.T @ np.array([0.0, -1.0, 0.0]) for cam in cameras], axis=0))
+#: a camera decides the vertical when its image's vertical direction is at least this close to one
+#: world axis (|cos|) and closer to it than to any other by :data:`AXIS_MARGIN`
+AXIS_MIN, AXIS_MARGIN = 0.7, 0.1
+VETO_HIGH, VETO_LOW = 0.95, 0.6  # silhouette scores of another axis / of the chosen one
+
+
+def _camera_axis(cam: Camera) -> int | None:
+    """The world axis (0, 1, 2) one camera's orientation makes vertical, or None (see module doc)."""
+    vertical = np.sort(np.abs(cam.R[1]))  # the image's vertical direction in world coordinates
+    if vertical[2] >= AXIS_MIN and vertical[2] - vertical[1] >= AXIS_MARGIN:
+        return int(np.argmax(np.abs(cam.R[1])))
+    return None
+
+
+def _orientation_axis(cameras: list[Camera]) -> int:
+    """The vertical world axis all cameras' orientations agree on; IPFError when they cannot."""
+    axes = [_camera_axis(c) for c in cameras]
+    named = sorted({a for a in axes if a is not None})
+    if len(named) != 1:
+        problem = ("their orientations disagree" if named else
+                   "none is level or tilted down by clearly less than 45 degrees")
+        raise IPFError(f"cannot tell which world axis is up from the camera"
+                       f"{'s' if len(cameras) > 1 else ''} ({problem}): give it with --up (one of "
+                       f"{', '.join(AXES)})")
+    return named[0]
+
+
+def _sign(cameras: list[Camera], k: int) -> str:
+    heights = np.array([cam.centre[k] for cam in cameras])
+    if abs(heights.mean()) >= 0.1:  # cameras above the floor
+        return "+" if heights.sum() >= 0 else "-"
+    image_up = np.mean([-cam.R[1, k] for cam in cameras])  # at floor height: level cameras
+    return "+" if image_up >= 0 else "-"
 
 
 def detect_up_axis(cameras: list[Camera], masks: list[np.ndarray] | None = None) -> str:
-    """The signed world axis that is up (see module doc). ``masks``: one frame, full resolution."""
-    axis_scores = _plane_axis_scores(cameras)
-    if axis_scores is None and masks is not None:
-        axis_scores = _silhouette_axis_scores(cameras, masks)
-    if axis_scores is None:
-        axis_scores = _image_up_scores(cameras)
-    k = int(np.argmax(axis_scores))
-    heights = np.array([cam.centre[k] for cam in cameras])
-    sign = "+" if np.sum(heights) >= 0 else "-"
-    return f"{sign}{'xyz'[k]}"
+    """The signed world axis that is up (see module doc). ``masks``: one frame, full resolution,
+    used only to veto a camera-orientation choice that a silhouette clearly contradicts."""
+    plane = _plane_axis_scores(cameras)
+    if plane is not None:
+        k = int(np.argmax(plane))
+    else:
+        k = _orientation_axis(cameras)
+        sil = _silhouette_axis_scores(cameras, masks) if masks is not None else None
+        if sil is not None and sil[k] <= VETO_LOW and np.delete(sil, k).max() >= VETO_HIGH:
+            other = "xyz"[int(np.argmax(np.where(np.arange(3) == k, -1.0, sil)))]
+            raise IPFError(f"cannot tell which world axis is up: the camera orientation says "
+                           f"{'xyz'[k]}, the silhouettes {other} (a camera rolled on its side?): "
+                           f"give it with --up (one of {', '.join(AXES)})")
+    return f"{_sign(cameras, k)}{'xyz'[k]}"

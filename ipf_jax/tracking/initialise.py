@@ -33,7 +33,7 @@ from ..filters.base import gaussian_noise
 from ..filters.selection import top_distinct
 from ..geometry.camera import Camera
 from ..geometry.placement import floor_point_single
-from ..geometry.posing import LEG_CONFIGS_DEG, gait_pose, place_on_floor
+from ..geometry.posing import LEG_CONFIGS_DEG, POSTURES_DEG, gait_pose, place_on_floor, posture_pose
 from ..geometry.rays import intersect_rays, is_upright, ray_at_height, silhouette_rays
 
 CENTROID_HEIGHT = 0.55  # fraction of standing height at the body's area centroid
@@ -65,6 +65,7 @@ class InitSettings(NamedTuple):
     refine_particles: int = 384
     pattern_keep: int = 8
     pattern_sweeps: int = 6
+    posture_modes: int = 1  # distinct modes of the postures beyond walking refined (0: none)
 
 
 class InitResult(NamedTuple):
@@ -99,14 +100,15 @@ def floor_points(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
 
 
 def grid_particles(foot: np.ndarray, shape: BodyShape, U: np.ndarray, limits: Limits,
-                   settings: InitSettings) -> np.ndarray:
-    """(G, D) grid configurations standing at positions around ``foot``."""
+                   settings: InitSettings, configs: list[np.ndarray] | None = None) -> np.ndarray:
+    """(G, D) grid configurations standing at positions around ``foot``: ``configs`` (poses at
+    the origin, default: the walking ones of ``LEG_CONFIGS_DEG``) x headings x positions."""
     k = settings.position_steps
     offsets = settings.position_step_m * np.arange(-k, k + 1)
     east, north = U[:, 0], U[:, 1]
     out = []
-    for legs in LEG_CONFIGS_DEG:
-        base = place_on_floor(gait_pose(*legs), shape.values, U)  # at the origin, on the floor
+    for config in (configs if configs is not None else [gait_pose(*legs) for legs in LEG_CONFIGS_DEG]):
+        base = place_on_floor(config, shape.values, U)  # at the origin, on the floor
         for yaw in np.linspace(-np.pi, np.pi, settings.headings, endpoint=False):
             q = base.copy()
             q[3] = yaw
@@ -145,15 +147,54 @@ def initialise(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera
         pool_w.append(w)
         pool_h.append(np.full(len(w), h))
     q_all, w_all, h_all = map(np.concatenate, (pool_q, pool_w, pool_h))
-    # the silhouettes are ambiguous (heading, which leg is forward): refine several distinct modes
-    # of the grid separately and keep the best, rather than letting one basin absorb the search
+    search = dict(search_height=height_m is None, search_proportions=fixed_shape is None)
+    best = refine_modes(rng_key, q_all, w_all, h_all, base_shape, measure, U, limits, settings,
+                        settings.modes, **search)
+    evaluations += best.evaluations
+    if settings.posture_modes:  # the postures beyond walking, refined beside the walking modes
+        q, w, h, n = posture_grid(feet, heights, base_shape, U, limits, measure, settings)
+        other = refine_modes(rng_key, q, w, h, base_shape, measure, U, limits, settings,
+                             settings.posture_modes, salt=len(q_all), **search)
+        evaluations += n + other.evaluations
+        if np.nanmax(other.weights) > np.nanmax(best.weights):
+            best = other
+    return best._replace(evaluations=evaluations)
+
+
+def posture_grid(feet: dict, heights: tuple[float, ...], base_shape: BodyShape, U: np.ndarray,
+                 limits: Limits, measure: Measure, settings: InitSettings):
+    """The postures of :data:`ipf_jax.geometry.posing.POSTURES_DEG` at every heading and floor
+    position of the grid, for every height: (G, D) particles, (G,) weights, (G,) heights, G."""
+    pool_q, pool_w, pool_h = [], [], []
+    for h in heights:
+        shape = base_shape if h == base_shape.height_m else base_shape.scaled_to(h)
+        grid = grid_particles(feet[h], shape, U, limits, settings,
+                              configs=[posture_pose(*p) for p in POSTURES_DEG.values()])
+        pool_q.append(grid)
+        pool_w.append(measure(grid, shape))
+        pool_h.append(np.full(len(grid), h))
+    q, w, h = map(np.concatenate, (pool_q, pool_w, pool_h))
+    return q, w, h, len(q)
+
+
+def refine_modes(rng_key: jax.Array, q_all: np.ndarray, w_all: np.ndarray, h_all: np.ndarray,
+                 base_shape: BodyShape, measure: Measure, U: np.ndarray, limits: Limits,
+                 settings: InitSettings, modes: int, *, search_height: bool,
+                 search_proportions: bool, salt: int = 0) -> InitResult:
+    """The refinement of a scored grid: (G, D) configurations, (G,) weights, (G,) heights.
+
+    The silhouettes are ambiguous (heading, which leg is forward): ``modes`` distinct modes of the
+    grid are refined separately and the best kept, rather than letting one basin absorb the search.
+    Each mode's random key is the grid index plus ``salt``.
+    """
+    evaluations = 0
     results = []
-    for seed_idx in grid_modes(q_all, w_all, settings.modes):
+    for seed_idx in grid_modes(q_all, w_all, modes):
         h = float(h_all[seed_idx])
         seed = (q_all[seed_idx][None], w_all[seed_idx][None])
-        key = jax.random.fold_in(rng_key, int(seed_idx))
+        key = jax.random.fold_in(rng_key, int(seed_idx) + salt)
         res = _refine(key, *seed, h, base_shape, measure, U, limits, settings,
-                      search_height=height_m is None, search_proportions=fixed_shape is None)
+                      search_height=search_height, search_proportions=search_proportions)
         evaluations += res.evaluations
         results.append(res)
     best = max(results, key=lambda r: np.nanmax(r.weights))

@@ -35,6 +35,7 @@ from .settings import (
     TrackSettings,
     init_settings,
 )
+from .loss import LEVELS
 from .shape_fit import ShapeFitSettings
 
 #: filter name -> the option keys it takes (its settings fields; ``particles`` for every one)
@@ -163,6 +164,19 @@ OPTIONS: tuple[Option, ...] = (
            check=_within(0.0, 1.0)),
     Option("confidence_patience", "--confidence-patience", "int", 2, "... for this many frames in a "
            "row (default 2)", check=_at_least(1)),
+    Option("loss_test", "--loss-test", "bool", True, "the absolute loss test: a frame where the "
+           "estimate explains too little of a camera's silhouette, or lies too much off it, for "
+           "2 frames in a row starts a recovery, and is written as lost (nan rows, best guess in "
+           "run.json) when that fails (default on; --no-loss-test: only the relative confidence, "
+           "as before)"),
+    Option("lost_explained", "--lost-explained", "float", LEVELS.explained, "loss test: lowest share "
+           f"Nc/(Nc+Ns) of a camera's silhouette the estimate must cover (default {LEVELS.explained:g})",
+           check=_within(0.0, 1.0), metavar="SHARE"),
+    Option("lost_covered", "--lost-covered", "float", LEVELS.covered, "loss test: lowest share "
+           f"Nc/(Nc+Nm) of the estimate that must lie on a camera's silhouette (default "
+           f"{LEVELS.covered:g})", check=_within(0.0, 1.0), metavar="SHARE"),
+    Option("recovery_retry", "--recovery-retry", "int", 3, "while the track is lost, a recovery "
+           "attempt every K frames (default 3)", check=_at_least(1), metavar="K"),
     Option("origin_shift", "--origin-shift", "bool", True, "body origin positioning from the "
            "silhouettes between frames (default on; --no-origin-shift turns it off)"),
     # -- the computation

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..filters import registry
 from .initialise import InitSettings
+from .loss import LEVELS
 from .shape_fit import ShapeFitSettings
 
 DEFAULT_RESOLUTION = 320  # long side of the scoring images, pixels
@@ -55,3 +56,7 @@ class TrackSettings(NamedTuple):
     floor_range: tuple[float, float] | None = None  # floor contact (tracking.contact); None = off
     shape_fit: ShapeFitSettings = ShapeFitSettings()  # the subject's proportions (frames 0: none)
     passes: int = 1  # 2: track, re-fit the shape on the track, track again (tracking.passes)
+    loss_test: bool = True  # the absolute loss test, the lost status and recovery (tracking.loss)
+    lost_explained: float = LEVELS.explained  # its levels (per camera shares)
+    lost_covered: float = LEVELS.covered
+    recovery_retry: int = 3  # while lost, a recovery attempt every this many frames

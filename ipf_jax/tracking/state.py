@@ -39,6 +39,10 @@ class TrackState(NamedTuple):
     init_evaluations : likelihood evaluations spent initialising and recovering.
     reinits : frames where a re-initialisation was tried.  records : run.json's ``per_frame`` so far.
     shape_fit : the record of the shape calibration at the start (:mod:`.shape_fit`), or None.
+    bad_streak : frames in a row failing the absolute loss test (:mod:`.loss`).
+    last_good : (D,) the estimate of the last frame that passed it (None before).
+    last_attempt : ``next_index`` of the last recovery attempt.
+    recoveries : one record per recovery attempt (frame, trigger, stage, accepted, evaluations).
     """
 
     next_index: int = 0
@@ -53,6 +57,10 @@ class TrackState(NamedTuple):
     reinits: tuple[int, ...] = ()
     records: tuple[dict, ...] = ()
     shape_fit: dict | None = None
+    bad_streak: int = 0
+    last_good: np.ndarray | None = None
+    last_attempt: int = -(1 << 30)
+    recoveries: tuple[dict, ...] = ()
 
 
 class FrameRecord(NamedTuple):
@@ -74,9 +82,13 @@ def save(out_dir: Path, state: TrackState, settings_key: str) -> None:
             "per_frame": list(state.records), "reinits": list(state.reinits),
             "init_evaluations": state.init_evaluations, "settings_key": settings_key,
             "anchor": None if state.anchor is None else state.anchor.to_json(),
-            "anchor_height": state.anchor_height, "shape_fit": state.shape_fit}
+            "anchor_height": state.anchor_height, "shape_fit": state.shape_fit,
+            "bad_streak": state.bad_streak, "last_attempt": state.last_attempt,
+            "recoveries": list(state.recoveries)}
     arrays = {} if state.filter is None else {"particles": state.filter.particles,
                                               "weights": state.filter.weights}
+    if state.last_good is not None:
+        arrays["last_good"] = state.last_good
     checkpoint.save(out_dir, meta, arrays)
 
 
@@ -91,7 +103,9 @@ def load(out_dir: Path) -> tuple[TrackState, str]:
             history=tuple(meta["history"]), low_streak=meta["low_streak"],
             anchor=FrameAnchor.from_json(meta["anchor"]), anchor_height=meta["anchor_height"],
             init_evaluations=meta["init_evaluations"], reinits=tuple(meta["reinits"]),
-            records=tuple(meta["per_frame"]), shape_fit=meta.get("shape_fit"))
+            records=tuple(meta["per_frame"]), shape_fit=meta.get("shape_fit"),
+            bad_streak=meta["bad_streak"], last_good=arrays.get("last_good"),
+            last_attempt=meta["last_attempt"], recoveries=tuple(meta["recoveries"]))
         return state, meta["settings_key"]
     except KeyError as e:  # written by another version of ipf-jax
         raise IPFError(f"checkpoint from another ipf-jax version (no {e}): rerun without --resume",

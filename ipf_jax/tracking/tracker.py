@@ -62,11 +62,14 @@ from ..likelihood.scorer import (
     scoring_cameras,
     weights_from_counts,
 )
+from . import loss
 from . import state as track_state
 from .contact import FloorContact
-from .initialise import floor_points, initialise
+from .initialise import InitSettings, floor_points, initialise
 from .options import settings_doc
+from .loss import Coverage, coverage
 from .origin import FrameAnchor, observe_anchor, root_shift
+from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc
 from .state import HISTORY, FrameRecord, TrackState
@@ -218,13 +221,28 @@ class Tracker:
                                       [c for c, a in zip(self.cameras, obs.active) if a]))
         return Seen(obs, small, person, frame_quality(small))
 
-    def measure(self, obs: Observation, shape: BodyShape | None = None):
+    def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
+        """``fn(particles, shape=None) -> weights`` on ``obs``; with ``log`` every call's
+        particles and counts are appended to it (the loss test reads the estimate's there)."""
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
             s = shp or shape
             if s is not None and s is not self.scorer.shape:
                 self.scorer.set_shape(s)
-            return weights_from_counts(self.scorer.counts(particles, obs), obs.active)[0]
+            counts = self.scorer.counts(particles, obs)
+            if log is not None:
+                log.append((np.asarray(particles), counts))
+            return weights_from_counts(counts, obs.active)[0]
         return fn
+
+    def coverage_of(self, pose: np.ndarray, obs: Observation, shape: BodyShape, log: list) -> Coverage:
+        """The per-camera shares of ``pose`` (:mod:`.loss`), from its counts in ``log`` when this
+        frame scored it (it almost always did), else scored once more (appended to ``log``)."""
+        for particles, counts in reversed(log):
+            hit = np.flatnonzero((particles == pose).all(1))
+            if hit.size:
+                return coverage(counts[hit[0]], obs.active)
+        self.measure(obs, shape, log)(pose[None])
+        return coverage(log[-1][1][0], obs.active)
 
     def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
         return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
@@ -239,20 +257,22 @@ class Tracker:
                           [i + 1 for i in active], self.dataset.path)
 
     def initialise(self, frame: int, obs: Observation, small: list[np.ndarray],
-                   shape: BodyShape | None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
-        """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation."""
+                   shape: BodyShape | None, log: list | None = None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
+        """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation.
+        ``log``: see :meth:`measure`."""
         s = self.settings
         active = [i for i in range(len(small)) if obs.active[i]]
         if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
-            w = self.measure(obs, shape)(q)
+            w = self.measure(obs, shape, log)(q)
             return q, w, shape, 1
         if shape is None and s.shape_file is not None:  # a shape file fixes the body
             shape = self.base_shape
         res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
                          [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
-                         self.measure(obs), height_m=s.height_m, fixed_shape=shape, settings=s.init)
+                         self.measure(obs, log=log), height_m=s.height_m, fixed_shape=shape,
+                         settings=s.init)
         return res.particles, res.weights, res.shape, res.evaluations
 
     def calibrate(self, frame: int, q: np.ndarray, w: np.ndarray, shape: BodyShape):
@@ -277,49 +297,122 @@ class Tracker:
                  if self.settings.origin_shift else np.zeros(3))
         return here, shift
 
-    def start(self, state: TrackState, frame: int, seen: Seen) -> TrackState:
+    def start(self, state: TrackState, frame: int, seen: Seen, log: list | None = None) -> TrackState:
         """The automatic initialisation (or the given initial pose) on the first frame seen."""
         s = self.settings
         self.check_view(seen.obs, seen.masks)
-        q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None)
+        q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None, log=log)
         doc = None
         if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
             q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
                               init_evaluations=state.init_evaluations + n, shape_fit=doc)
 
-    def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray) -> tuple[TrackState, int]:
+    def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray,
+             log: list | None = None) -> tuple[TrackState, int]:
         """Select, predict, measure: one step of the filter, every particle's root moved first
         by the body origin's shift. Returns the state and the evaluations spent."""
         moved = FilterState(state.filter.particles + np.r_[shift, np.zeros(NUM_DOF - 3)],
                             state.filter.weights)
         filt, info = self.filter_for(state.shape).step(self.frame_key(frame), moved,
-                                                       self.measure(seen.obs, state.shape))
+                                                       self.measure(seen.obs, state.shape, log))
         return state._replace(filter=filt), info.evaluations
 
-    def check(self, state: TrackState, frame: int, seen: Seen, status: str, info: dict) -> tuple[TrackState, str, float]:
-        """The confidence (best weight over the median of the last frames'); after a collapse that
-        lasts, a re-initialisation around the subject, kept only if it weighs more."""
+    def check(self, state: TrackState, frame: int, seen: Seen, status: str, info: dict,
+              log: list) -> tuple[TrackState, str, float]:
+        """The confidence (best weight over the median of the last frames') and the absolute loss
+        test (:mod:`.loss`); a collapse of either that lasts starts a recovery, kept only if it
+        weighs more; a frame still failing the loss test then is ``lost``."""
         s = self.settings
         w_best = float(state.filter.weights[best_index(state.filter.weights)])
         ref = float(np.median(state.history)) if state.history else w_best
         conf = w_best / ref if ref > 0 else 0.0
         low = state.low_streak + 1 if conf < s.confidence_drop else 0
         state = state._replace(low_streak=low)
-        if status == "tracked" and low >= s.confidence_patience:
-            try:
-                q, w, _, n = self.initialise(frame, seen.obs, seen.masks, state.shape)
-            except IPFError as e:  # a recovery attempt that cannot run keeps the track
-                w, n = None, 0
-                info["reinit_error"] = e.message
-            status = "reinit-rejected"
-            if w is not None and np.nanmax(w) > w_best:
-                state = state._replace(filter=self.filter_for(state.shape).init(q, w))
-                status = "reinit"
-            state = state._replace(init_evaluations=state.init_evaluations + n, history=(),
-                                   low_streak=0, reinits=(*state.reinits, int(frame)))
+        if not s.loss_test:
+            if status == "tracked" and low >= s.confidence_patience:
+                state, status = self.reinitialise(state, frame, seen, w_best, info)
+                conf = 1.0
+            return state, status, conf
+        scored = self.scorer.evaluations
+        cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
+        state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
+        bad = state.bad_streak + 1 if loss.fails(cov, self.levels) else 0
+        due = state.next_index - state.last_attempt >= s.recovery_retry
+        if status == "tracked" and (low >= s.confidence_patience or (bad >= loss.PATIENCE and due)):
+            trigger = "loss test" if bad >= loss.PATIENCE else "confidence"
+            state, status, log = self.recover(state, frame, seen, w_best, info, trigger)
+            scored = self.scorer.evaluations
+            cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
+            state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
+            bad = bad if loss.fails(cov, self.levels) else 0
             conf = 1.0
+        state = state._replace(bad_streak=bad)
+        if bad == 0:
+            state = state._replace(last_good=self.estimate(state))
+        elif bad >= loss.PATIENCE:
+            status = "lost"
+        info["coverage"] = cov.to_json()
         return state, status, conf
+
+    @staticmethod
+    def estimate(state: TrackState) -> np.ndarray:
+        """(D,) the estimate: the heaviest particle."""
+        return state.filter.particles[best_index(state.filter.weights)]
+
+    @property
+    def recovery_search(self) -> InitSettings:
+        """The global recovery's search: :data:`.recovery.GLOBAL`, or a lighter ``--init-budget``."""
+        init = self.settings.init
+        return GLOBAL if init == init_settings() else init
+
+    @property
+    def levels(self) -> loss.LossLevels:
+        return loss.LossLevels(self.settings.lost_explained, self.settings.lost_covered)
+
+    def reinitialise(self, state: TrackState, frame: int, seen: Seen, w_best: float,
+                     info: dict) -> tuple[TrackState, str]:
+        """Without the loss test: a re-initialisation around the subject, kept if it weighs more."""
+        try:
+            q, w, _, n = self.initialise(frame, seen.obs, seen.masks, state.shape)
+        except IPFError as e:  # a recovery attempt that cannot run keeps the track
+            w, n = None, 0
+            info["reinit_error"] = e.message
+        status = "reinit-rejected"
+        if w is not None and np.nanmax(w) > w_best:
+            state = state._replace(filter=self.filter_for(state.shape).init(q, w))
+            status = "reinit"
+        state = state._replace(init_evaluations=state.init_evaluations + n, history=(),
+                               low_streak=0, reinits=(*state.reinits, int(frame)))
+        return state, status
+
+    def recover(self, state: TrackState, frame: int, seen: Seen, w_best: float, info: dict,
+                trigger: str) -> tuple[TrackState, str, list]:
+        """A recovery attempt (:func:`.recovery.recover`), kept if it weighs more than the
+        current estimate; returns the state, the frame's status and the attempt's score log."""
+        active = [i for i in range(len(seen.masks)) if seen.obs.active[i]]
+        log: list = []
+        measure = self.measure(seen.obs, state.shape, log)
+        still_lost = lambda q: loss.fails(self.coverage_of(q, seen.obs, state.shape, log),  # noqa: E731
+                                          self.levels)
+        try:
+            res = recover(self.frame_key(frame, 2), [seen.masks[i] for i in active],
+                          [self.cameras[i] for i in active], self.U, self.limits, state.shape,
+                          measure, still_lost, state.last_good, global_settings=self.recovery_search)
+        except IPFError as e:  # a recovery attempt that cannot run keeps the track
+            res = None
+            info["reinit_error"] = e.message
+        accepted = res is not None and float(np.nanmax(res.weights)) > w_best
+        n = 0 if res is None else res.evaluations
+        if accepted:
+            state = state._replace(filter=self.filter_for(state.shape).init(res.particles, res.weights))
+        record = {"frame": int(frame), "trigger": trigger, "stage": None if res is None else res.stage,
+                  "accepted": bool(accepted), "evaluations": int(n)}
+        info["recovery"] = {k: v for k, v in record.items() if k != "frame"}
+        state = state._replace(init_evaluations=state.init_evaluations + n, history=(), low_streak=0,
+                               reinits=(*state.reinits, int(frame)), last_attempt=state.next_index,
+                               recoveries=(*state.recoveries, record))
+        return state, ("reinit" if accepted else "reinit-rejected"), log
 
     def track_frame(self, state: TrackState, frame: int, seen: Seen) -> tuple[TrackState, FrameRecord]:
         """One frame: place, initialise or step (select, predict, measure), estimate, check."""
@@ -333,11 +426,12 @@ class Tracker:
                                       np.full((NUM_POINTS, 3), np.nan), info)
         anchor, shift = self.place(state, seen)
         state = state._replace(anchor=anchor)
+        log: list = []
         if state.filter is None:
-            state, status, evals = self.start(state, frame, seen), "init", 0
+            state, status, evals = self.start(state, frame, seen, log), "init", 0
         else:
-            (state, evals), status = self.step(state, frame, seen, shift), "tracked"
-        state, status, conf = self.check(state, frame, seen, status, info)
+            (state, evals), status = self.step(state, frame, seen, shift, log), "tracked"
+        state, status, conf = self.check(state, frame, seen, status, info, log)
         best = best_index(state.filter.weights)  # the estimate: the heaviest particle
         w_best = float(state.filter.weights[best])
         state = state._replace(history=(*state.history, w_best)[-HISTORY:])
@@ -347,6 +441,10 @@ class Tracker:
             state = state._replace(anchor_height=float(self.U[:, 2] @ points[0]))
         info.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
                     evaluations=int(evals), origin_shift_m=round(float(np.linalg.norm(shift)), 4))
+        if status == "lost":  # written like a missing frame; the best guess stays in run.json
+            info["best_guess"] = {"pose": np.round(pose, 6).tolist(),
+                                  "points": np.round(points, 6).tolist()}
+            pose, points = np.full(NUM_DOF, np.nan), np.full((NUM_POINTS, 3), np.nan)
         return state, FrameRecord(frame, time_s, pose, points, info)
 
     # -- the run -----------------------------------------------------------------------------
@@ -383,7 +481,9 @@ class Tracker:
                     write_json_atomic(out_dir / "run.json",
                                       self.run_doc(state, time.perf_counter() - t_start))
                 if frame_hook is not None and rec.info["status"] != "missing":
-                    frame_hook(FrameView(frame, seen.masks, self.cameras, rec.pose, state.shape,
+                    guess = rec.info.get("best_guess")  # a lost frame shows its best guess
+                    pose = rec.pose if guess is None else np.asarray(guess["pose"])
+                    frame_hook(FrameView(frame, seen.masks, self.cameras, pose, state.shape,
                                          self.U, rec.info["weight"]))
         except IPFError as e:  # say where the run stopped and that its rows are safe
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
@@ -437,18 +537,29 @@ class Tracker:
             "shape_source": self.shape_doc(state)["source"], "shape_fit": state.shape_fit,
             "shape_fit_evaluations": (state.shape_fit or {}).get("evaluations", 0),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
-                       "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame)},
+                       "done": len(per_frame), "missing": sum(r["status"] == "missing" for r in per_frame),
+                       "lost": sum(r["status"] == "lost" for r in per_frame)},
             "mask_quality": quality_summary([r["mask_quality"] for r in per_frame],
                                             [c.name for c in self.dataset.cameras])
             if per_frame and all("mask_quality" in r for r in per_frame) else None,
             "evaluations_per_frame": f.evaluations_per_frame,
             "init_evaluations": state.init_evaluations,
             "reinitialisations": list(state.reinits),
+            "recovery": recovery_summary(state.recoveries),
             "seconds": {"total": round(seconds, 3),
                         "per_tracked_frame_mean": round(float(np.mean(
                             [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},
             "per_frame": per_frame,
         }
+
+
+def recovery_summary(recoveries: tuple[dict, ...]) -> dict:
+    """``run.json``'s ``recovery``: attempts, how many were accepted, at which stage, their cost."""
+    return {"attempts": len(recoveries), "accepted": sum(r["accepted"] for r in recoveries),
+            "local": sum(r["accepted"] and r["stage"] == "local" for r in recoveries),
+            "global": sum(r["accepted"] and r["stage"] == "global" for r in recoveries),
+            "evaluations": sum(r["evaluations"] for r in recoveries),
+            "per_attempt": list(recoveries)}
 
 
 def track(dataset: Dataset, out_dir: str | Path, settings: TrackSettings = TrackSettings(), *,

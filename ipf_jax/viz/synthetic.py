@@ -17,7 +17,7 @@ from ..data.calibration import write_json
 from ..data.runfiles import JOINT_COLUMNS
 from ..geometry.camera import Camera
 from ..geometry.host import forward_kinematics, project_capsules
-from ..geometry.posing import place_on_floor
+from ..geometry.posing import POSTURES_DEG, place_on_floor, posture_pose
 from ..geometry.world import up_rotation
 from ..likelihood.model_mask import model_mask
 
@@ -89,6 +89,32 @@ def procedural_walk(n_frames: int, fps: float = 20.0, *, speed: float = 1.2,
     for i in range(n_frames):
         q[i, :3] = start_world + forward_world * speed * t[i] + side_world * 0.01 * np.sin(
             np.pi * stride_hz * 2 * t[i])
+        q[i] = place_on_floor(q[i], shape.values, U)
+    return q
+
+
+def walk_turn_crouch(*, shape: BodyShape, fps: float = 20.0, walk_frames: int = 16,
+                     turn_frames: int = 10, crouch_frames: int = 16, turn_deg: float = 120.0,
+                     up_axis: str = "+z") -> np.ndarray:
+    """(T, D) a self-rendered start-walk-turn-crouch-walk sequence: a straight walk along +x, a
+    turn on the spot by ``turn_deg``, a deep crouch (down and up again, :data:`POSTURES_DEG`
+    ``crouch``), and a walk on in the new heading. T = 2 walk_frames + turn_frames + crouch_frames.
+    """
+    U = up_rotation(up_axis)
+    first = procedural_walk(walk_frames, fps, shape=shape, up_axis=up_axis)
+    here = first[-1].copy()
+    turn = np.repeat(here[None], turn_frames, axis=0)
+    turn[:, 3] = here[3] + np.deg2rad(turn_deg) * (np.arange(1, turn_frames + 1) / turn_frames)
+    heading = float(turn[-1, 3])
+    crouch = posture_pose(*POSTURES_DEG["crouch"], heading=heading)
+    stand = turn[-1].copy()
+    depth = np.sin(np.pi * np.arange(1, crouch_frames + 1) / (crouch_frames + 1))  # down, up
+    down = np.array([np.r_[stand[:6], stand[6:] + d * (crouch[6:] - stand[6:])] for d in depth])  # (F, D)
+    start = (U.T @ stand[:3])[:2]
+    last = procedural_walk(walk_frames, fps, heading_deg=float(np.rad2deg(heading)), start=start,
+                           shape=shape, up_axis=up_axis)
+    q = np.concatenate([first, turn, down, last])
+    for i in range(walk_frames, len(q) - walk_frames):
         q[i] = place_on_floor(q[i], shape.values, U)
     return q
 

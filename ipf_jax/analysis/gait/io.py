@@ -101,6 +101,10 @@ def read_joints_csv(path: str | Path, *, up: str | None = None, units: str | Non
     notes = [f"up axis {up_axis} from {source}"]
     if cameras:
         notes.append(f"{cameras} camera{'s' if cameras > 1 else ''} (run.json)")
+    lost = _lost_frames(meta)
+    if lost:
+        notes.append(f"{len(lost)} frame{'s' if len(lost) > 1 else ''} the tracker declared lost "
+                     f"(run.json: {_spans(lost)}) are gaps, like missing frames")
     fps = meta.get("fps")
     fps = float(fps) if isinstance(fps, (int, float)) and not isinstance(fps, bool) \
         and np.isfinite(fps) and fps > 0 else None
@@ -132,6 +136,26 @@ def write_joints_csv(traj: Trajectories, path: str | Path, *, run_json: bool = T
         path.with_name("run.json").write_text(json.dumps({"up_axis": traj.up_axis,
                                                           "fps": traj.fps}))
     return path
+
+
+def _lost_frames(meta: dict) -> list[int]:
+    """Frame numbers whose ``run.json`` status is ``lost`` (written as nan rows)."""
+    per_frame = meta.get("per_frame")
+    if not isinstance(per_frame, list):
+        return []
+    return [r["frame"] for r in per_frame if isinstance(r, dict) and r.get("status") == "lost"
+            and isinstance(r.get("frame"), int)]
+
+
+def _spans(frames: list[int]) -> str:
+    """'frames 3-5, 9' for [3, 4, 5, 9] (frame numbers in order)."""
+    runs: list[list[int]] = []
+    for f in frames:
+        if runs and f == runs[-1][-1] + 1:
+            runs[-1].append(f)
+        else:
+            runs.append([f])
+    return "frames " + ", ".join(f"{r[0]}" if len(r) == 1 else f"{r[0]}-{r[-1]}" for r in runs)
 
 
 def _run_json(path: Path) -> dict:
