@@ -112,13 +112,21 @@ def _apf_settings(options: dict, budget: int | None) -> apf.APFSettings:
     return settings
 
 
-def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
+def _sized(options: dict, budget: int | None, fallback: int | None = None) -> tuple[dict, int | None]:
+    """(options without ``particles``, the total to size M from): ``particles``, else the budget
+    unless M is given (else ``fallback``). Giving both ``particles`` and M is an error."""
     options = dict(options)
     particles = options.pop("particles", None)
     if particles is not None and "top_m" in options:
         raise IPFError("give either --particles or --top-m, not both")
+    if particles is not None or "top_m" in options:
+        return options, particles
+    return options, budget if budget is not None else fallback
+
+
+def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
+    options, total = _sized(options, budget)
     settings = ipf.IPFSettings(**options)
-    total = particles if particles is not None else (None if "top_m" in options else budget)
     if total is not None:
         grid = settings.grid_size()
         require(total >= grid, f"{total} particles cannot hold one grid of I = {grid} neighbours "
@@ -128,13 +136,8 @@ def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
 
 
 def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
-    options = dict(options)
-    total = options.pop("particles", None)
-    if total is not None and "top_m" in options:
-        raise IPFError("give either --particles or --top-m, not both")
+    options, total = _sized(options, budget, fipf.DEFAULT_BUDGET)  # no size given: the paper's
     settings = fipf.FIPFSettings(**options)
-    if total is None and "top_m" not in options:  # no size given: the budget, else the paper's
-        total = budget if budget is not None else fipf.DEFAULT_BUDGET
     if total is not None:
         for fallback in ({"points_per_dof": 2}, {"points_per_dof": 2, "rounds": 1}):
             if total >= settings.cost_per_particle() or set(fallback) & set(options):
