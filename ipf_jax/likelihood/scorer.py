@@ -230,9 +230,6 @@ class Scorer:
         self.w_words = int(-(-self.widths.max() // WORD))
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
-        #: padded sizes of a partial last block: chunk / 8, / 4, / 2 (>= 64, whole per device), chunk
-        self.buckets = tuple(sorted({s for s in (self.chunk // 8, self.chunk // 4, self.chunk // 2)
-                                     if s >= 64 and s % len(devices) == 0} | {self.chunk}))
         # one device: plain arrays; several: the particle axis is split across them (GSPMD)
         mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
         self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
@@ -250,16 +247,12 @@ class Scorer:
         return jax.device_put(x, self._split if split else self._whole)
 
     def _chunks(self, particles: np.ndarray):
-        """(start, block) of at most :attr:`chunk` particles; a last, partial block is padded to the
-        smallest of :attr:`buckets` that holds it (the factored filter's small calls are not
-        padded to a whole chunk), with copies of a real particle: extents stay the same."""
         n = len(particles)
         b = self.chunk
         for start in range(0, n, b):
             block = particles[start:start + b]
-            if len(block) < b:
-                size = next(s for s in self.buckets if s >= len(block))
-                block = np.concatenate([block, np.repeat(block[:1], size - len(block), axis=0)])
+            if len(block) < b:  # pad with copies of a real particle: extents stay the same
+                block = np.concatenate([block, np.repeat(block[:1], b - len(block), axis=0)])
             yield start, block.astype(np.float32)
 
     # -- stage 1 and the window plan -------------------------------------------------------------
