@@ -5,6 +5,7 @@ is the command; the board detection and OpenCV fits are :mod:`.checkerboard`.
 """
 from __future__ import annotations
 
+import itertools
 from typing import NamedTuple
 
 import numpy as np
@@ -37,7 +38,8 @@ def calibrate_cameras(board: "cb.Board", req: Request, *, max_error: float,
     bad = [n for n in req.flip if n not in req.floors]
     require(not bad, f"--flip {', '.join(bad)}: no --floor for that camera")
     views, sizes, intr, floor_views, notes = _intrinsics(board, req, names)
-    poses, pose_err, how = _floor_poses(board, req, floor_views, intr)
+    poses, pose_err, how, flip_notes = _floor_poses(board, req, floor_views, intr)
+    notes += flip_notes
     if not poses:  # no floor board: the first camera is the world
         poses[names[0]], pose_err[names[0]], how[names[0]] = (np.eye(3), np.zeros(3)), 0.0, "world"
     _chain(board, names, views, sizes, intr, poses, pose_err, how)
@@ -76,21 +78,80 @@ def _intrinsics(board, req: Request, names):
     return views, sizes, intr, floor_views, notes
 
 
+def _floor_pose(board, v, intr, flip: bool):
+    """(R, t, rms) of one camera from its still floor board, numbered from the other end if
+    ``flip``."""
+    if flip:
+        v = v._replace(uv=v.uv[::-1].copy())
+    R, t, rms, _ = cb.board_pose([v], intr.K, intr.dist, board)
+    if (-R.T @ t)[2] > 0 and not board.charuco:
+        # numbered with the other handedness: the board's z would point at this camera
+        # (every camera must stand on one side of the floor); a mirror of a pattern that
+        # has an odd number of squares along that side numbers the same squares
+        mirrored = cb.mirrored(v, board)
+        if mirrored is not None:
+            R, t, rms, _ = cb.board_pose([mirrored], intr.K, intr.dist, board)
+    return R, t, rms
+
+
 def _floor_poses(board, req: Request, floor_views, intr):
+    flips = {n: n in req.flip for n in floor_views}
+    notes = []
+    if board.symmetric and not req.flip:
+        flips, notes = _flips_from_layout(board, floor_views, intr)
     poses, pose_err, how = {}, {}, {}
     for n, v in floor_views.items():
-        if n in req.flip:
-            v = v._replace(uv=v.uv[::-1].copy())
-        R, t, rms, _ = cb.board_pose([v], intr[n].K, intr[n].dist, board)
-        if (-R.T @ t)[2] > 0 and not board.charuco:
-            # numbered with the other handedness: the board's z would point at this camera
-            # (every camera must stand on one side of the floor); a mirror of a pattern that
-            # has an odd number of squares along that side numbers the same squares
-            mirrored = cb.mirrored(v, board)
-            if mirrored is not None:
-                R, t, rms, _ = cb.board_pose([mirrored], intr[n].K, intr[n].dist, board)
+        R, t, rms = _floor_pose(board, v, intr[n], flips[n])
         poses[n], pose_err[n], how[n] = (R, t), rms, "floor board"
-    return poses, pose_err, how
+    return poses, pose_err, how, notes
+
+
+#: Pairwise camera distances must agree with the files' layout this much better (spread of their
+#: log ratios) before the board numbering is changed on the strength of it.
+LAYOUT_GAIN = 3.0
+
+
+def _flips_from_layout(board, floor_views, intr) -> tuple[dict, list[str]]:
+    """The board numbering of each floor camera that makes the camera layout agree with the
+    poses their ``--intrinsics`` files hold (uu's ``config.xml``), when three or more have one.
+
+    A half turn of a symmetric chessboard moves a camera's centre to the other side of the board;
+    distances between camera centres do not depend on the world frame or its units, so the
+    numbering whose pairwise distances are one scale of the files' is the right one. The first
+    camera keeps its numbering (flipping them all turns the world, not the layout)."""
+    names = list(floor_views)
+    flips = {n: False for n in names}
+    known = [n for n in names if intr[n].centre is not None]
+    if len(known) < 3:
+        return flips, []
+    centres = {(n, f): -R.T @ t for n in known for f in (False, True)
+               for R, t, _ in [_floor_pose(board, floor_views[n], intr[n], f)]}
+    pairs = list(itertools.combinations(known, 2))
+
+    def log_ratios(choice):
+        return np.array([np.log(np.linalg.norm(intr[a].centre - intr[b].centre)
+                                / max(np.linalg.norm(centres[a, choice[a]] - centres[b, choice[b]]), 1e-9))
+                         for a, b in pairs])
+
+    options = [dict(zip(known, (False, *rest))) for rest in itertools.product((False, True),
+                                                                             repeat=len(known) - 1)]
+    spread = [float(np.std(log_ratios(c))) for c in options]
+    best = int(np.argmin(spread))
+    if options[best] == options[0] or spread[best] * LAYOUT_GAIN > spread[0]:
+        return flips, []
+    flips.update(options[best])
+    ratio, first = np.exp(log_ratios(options[best])), np.exp(log_ratios(options[0]))
+    turned = [n for n in known if options[best][n]]
+    notes = [f"{', '.join(turned)}: floor board numbered from the other end, so that the camera "
+             f"layout agrees with the poses in the --intrinsics files (their camera distances are "
+             f"{ratio.min():.2f}-{ratio.max():.2f}x these, {first.min():.2f}-{first.max():.2f}x "
+             "with the first numbering)"]
+    scale = float(np.exp(np.median(np.log(ratio))))
+    if 0.5 < scale < 2.0 and abs(scale - 1.0) > 0.1:
+        notes.append(f"note: the --intrinsics files place the cameras {scale:.2f}x as far apart as "
+                     f"this board does: if they are right, the board's squares are "
+                     f"{board.square * scale:.4g} m, not {board.square:g} m (--square)")
+    return flips, notes
 
 
 def _chain(board, names, views, sizes, intr, poses, pose_err, how) -> None:

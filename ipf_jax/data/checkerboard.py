@@ -226,7 +226,8 @@ def read_intrinsics(path: str | Path, width: int, height: int) -> Intrinsics:
     path = Path(path)
     try:
         cam = read_calibration(path, width, height)[0]
-        return Intrinsics(cam.K, cam.dist, float("nan"), 0)
+        posed = not (np.allclose(cam.R, np.eye(3)) and np.allclose(cam.T, 0.0))
+        return Intrinsics(cam.K, cam.dist, float("nan"), 0, cam.centre if posed else None)
     except IPFError as e:
         if "missing" not in e.message and "OpenCV" not in e.message:
             raise
@@ -259,6 +260,7 @@ class Intrinsics(NamedTuple):
     dist: np.ndarray  # (5,) k1 k2 p1 p2 k3
     rms: float  # px over every corner of every view used
     used: int  # views used
+    centre: np.ndarray | None = None  # (3,) camera centre of the file's own pose, when it has one
 
 
 def intrinsics(found: list[View], size: tuple[int, int], board: Board) -> Intrinsics:
