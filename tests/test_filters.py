@@ -269,6 +269,15 @@ def test_run_json_reports_exactly_what_the_scorer_evaluated(scene, tmp_path, nam
     assert per_frame == [0, expected, expected]
     assert run["init_evaluations"] == 1
     assert tracker.scorer.evaluations == run["init_evaluations"] + sum(per_frame)
+    assert run["chunk"] == CHUNK  # given, so kept
+
+
+@pytest.mark.parametrize("name", registry.NAMES)
+@pytest.mark.parametrize("budget", [300, 6561, 20000])
+def test_each_filter_declares_the_calls_it_makes(name, budget):
+    opts = {"points_per_dof": 2} if name == "fipf" and budget < 774 else {}
+    f = registry.make(name, opts, LIMITS, FPS, budget)
+    assert sum(f.calls) == f.evaluations_per_frame and all(n > 0 for n in f.calls)
 
 
 # -- factored IPF --------------------------------------------------------------------------------
@@ -311,6 +320,7 @@ def test_fipf_evaluates_what_it_reports_and_never_loses_the_best():
     for k in range(3):
         state, info = f.step(jax.random.PRNGKey(k), state, measure)
         assert sum(calls) == info.evaluations == 1000
+        assert tuple(calls) == f.calls  # what the tracker sizes the scorer's chunks from
         calls.clear()
         weights.append(info.best_weight)
     assert weights == sorted(weights) and weights[-1] > float(measure(start)[0])

@@ -135,3 +135,18 @@ def test_no_retrace_across_frames(scene):
     finally:
         for name, fn in saved.items():
             setattr(likelihood, name, fn)
+
+
+def test_chunk_sizes_follow_the_filters_calls():
+    """IPF's one call of 6561 keeps 512-particle chunks; the factored filter's 14 calls of 1017,
+    648, 216 and 72 particles (M 8) get 216, which pads 6,912 particles instead of 11,264."""
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.filters import registry
+    from ipf_jax.likelihood.scorer import pick_chunk
+    limits = load_limits("default")
+    make = lambda name: registry.make(name, {}, limits, 20.0, budget=6561)  # noqa: E731
+    assert pick_chunk(make("ipf").calls) == 512
+    fipf = make("fipf")
+    assert pick_chunk(fipf.calls) == 216
+    assert sum(-(-n // 216) * 216 for n in fipf.calls) == 6912
+    assert sum(-(-n // 512) * 512 for n in fipf.calls) == 11264

@@ -38,6 +38,19 @@ def test_shares_and_levels():
     assert not loss.fails(loss.coverage(counts[:1], np.array([True])), loss.LossLevels(0.55, 0.55))
 
 
+
+def test_clutter_lowers_a_cameras_explained_level_from_the_first_frame():
+    counts = np.array([[80, 20, 5], [45, 55, 4], [40, 60, 40], [0, 0, 0]])  # (Nc, Ns, Nm)
+    first = loss.coverage(counts, np.array([True, True, True, False]))
+    levels = loss.clutter_levels(first, loss.LossLevels(0.60, 0.70))
+    # camera 0 explains 0.80 (kept at 0.60); camera 1 0.45 with the body on the silhouette
+    # (covered 0.92): a chair, so 0.35; camera 2's model lies half off the mask: not clutter
+    assert levels.explained == pytest.approx((0.60, 0.35, 0.60, 0.60)) and levels.covered == 0.70
+    later = loss.coverage(np.array([[78, 22, 5], [42, 58, 4], [70, 30, 10], [0, 0, 0]]),
+                          np.array([True, True, True, False]))
+    assert loss.fails(later, loss.LossLevels(0.60, 0.70)) and not loss.fails(later, levels)
+
+
 @pytest.fixture(scope="module")
 def scene():
     """Six walking frames, then three where the silhouettes are a box nothing like a body."""
@@ -59,6 +72,7 @@ def test_a_lost_track_is_written_as_missing_with_its_best_guess(scene, tmp_path)
     assert statuses[6] == "tracked"  # one failing frame is not yet a loss...
     assert statuses[7:] == ["lost", "lost"]  # ... two are, and nothing explains a box
     assert run["frames"]["lost"] == 2
+    assert run["loss_levels"] == {"explained": [0.6, 0.6], "covered": 0.7}  # the walk is clutter-free
     assert np.isnan(res.joints[7:]).all() and np.isfinite(res.joints[:7]).all()
     rows = (tmp_path / "poses.csv").read_text().splitlines()
     assert rows[8].split(",")[2:] == ["nan"] * 31
@@ -83,6 +97,7 @@ def test_without_the_loss_test_nothing_is_lost(scene, tmp_path):
     run = json.loads((tmp_path / "run.json").read_text())
     assert "lost" not in [r["status"] for r in run["per_frame"]]
     assert run["recovery"]["attempts"] == 0 and "coverage" not in run["per_frame"][0]
+
 
 
 @pytest.mark.parametrize("posture", ["sit", "crouch"])

@@ -269,3 +269,15 @@ def test_rendering_pose_scores_the_maximum_through_the_cameras(frame, offsets):
     w, _ = weights_from_counts(counts, active)
     assert np.all(w >= 0)
     assert w[0] == np.mean([m.sum() for m, a in zip(masks, active) if a]) == w.max()
+
+
+@PROPERTY
+@given(calls=st.lists(st.integers(1, 5000), min_size=1, max_size=16),
+       limit=st.sampled_from([64, 128, 512, 1000]))
+def test_the_chunk_picked_for_a_filter_is_never_worse_than_the_default(calls, limit):
+    """Host-only: :func:`pick_chunk` stays within its range and never raises the modelled cost."""
+    from ipf_jax.likelihood.scorer import chunk_cost, pick_chunk
+    c = pick_chunk(calls, limit)
+    assert 1 <= c <= limit
+    assert chunk_cost(calls, c) <= chunk_cost(calls, limit)
+    assert c == limit or (c % 8 == 0 and chunk_cost(calls, c) <= 0.9 * chunk_cost(calls, limit))

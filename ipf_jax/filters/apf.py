@@ -142,4 +142,4 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
     params = {"particles": n, "layers": layers, "survival": settings.survival,
               "noise_scale": settings.noise_scale,
               "noise_decay": noise_decay(settings)}
-    return Filter("apf", init_state, step, n * layers, params)
+    return Filter("apf", init_state, step, n * layers, params, (n,) * layers)

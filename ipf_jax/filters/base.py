@@ -32,13 +32,19 @@ class FilterInfo(NamedTuple):
 
 
 class Filter(NamedTuple):
-    """A filter = pure functions + its exact per-frame likelihood budget."""
+    """A filter = pure functions + its exact per-frame likelihood budget.
+
+    calls : the particle count of each measure call of one frame, in order (their sum is
+    ``evaluations_per_frame``); the tracker sizes the scorer's compiled calls from them
+    (:func:`ipf_jax.likelihood.scorer.pick_chunk`).
+    """
 
     name: str
     init: Callable[[np.ndarray, np.ndarray], FilterState]
     step: Callable[[jax.Array, FilterState, Measure], tuple[FilterState, FilterInfo]]
     evaluations_per_frame: int
     params: dict
+    calls: tuple[int, ...] = ()
 
 
 def init_state(particles: np.ndarray, weights: np.ndarray) -> FilterState:

@@ -116,6 +116,13 @@ class FIPFSettings(NamedTuple):
     def evaluations(self) -> int:
         return self.top_m * self.cost_per_particle() + self.filler
 
+    def calls(self) -> tuple[int, ...]:
+        """Particles of each measure call of a frame: one per group and round (the filler with
+        the first)."""
+        sizes = [self.top_m * g for _ in range(self.rounds) for g in self.grid_sizes()]
+        sizes[0] += self.filler
+        return tuple(sizes)
+
 
 def validate(settings: FIPFSettings) -> None:
     require(settings.top_m >= 1, f"top M must be >= 1 (got {settings.top_m})")
@@ -212,4 +219,4 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
               "groups": {name: list(grid) for name, grid, _ in settings.groups},
               "grid_sizes": list(settings.grid_sizes()),
               "cost_per_particle": settings.cost_per_particle(), "particles": n}
-    return Filter("fipf", init_state, step, n, params)
+    return Filter("fipf", init_state, step, n, params, settings.calls())

@@ -99,4 +99,4 @@ def build(settings: IPFSettings, limits: Limits, fps: float) -> Filter:
               "interesting": list(settings.interesting),
               "interval_width_deg": float(np.rad2deg(grid[:, 0].max() - grid[:, 0].min())),
               "particles": n, "noise_scale": settings.noise_scale}
-    return Filter("ipf", init, step, n, params)
+    return Filter("ipf", init, step, n, params, (n,))

@@ -50,4 +50,4 @@ def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:
         weights = np.asarray(measure(new), float)
         return FilterState(new, weights), summarise(new, weights, n)
 
-    return Filter("sir", init_state, step, n, {"particles": n, "noise_scale": settings.noise_scale})
+    return Filter("sir", init_state, step, n, {"particles": n, "noise_scale": settings.noise_scale}, (n,))

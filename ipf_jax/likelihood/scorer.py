@@ -59,6 +59,13 @@ from .raster import (
 )
 
 KERNELS = ("scanline", "dense")
+#: Particles per compiled call unless told: bounds memory, never changes a count.
+DEFAULT_CHUNK = 512
+#: Host and dispatch cost of one compiled call, in particles' worth of scoring. Fitted on the
+#: factored filter's 14 calls per frame (4 cameras, 320x240, one run, ``benchmarks/chunk_sizes.py``):
+#: chunks of 128 / 216 / 256 particles took 0.79 / 0.66 / 0.72 of the time chunks of 512 took; the
+#: cost model of :func:`pick_chunk` gives 0.80 / 0.66 / 0.75.
+CALL_OVERHEAD = 32
 
 
 def scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
@@ -196,6 +203,27 @@ def _round_up(n: int, step: int, cap: int) -> int:
     return min(cap, -(-max(n, 1) // step) * step)
 
 
+def chunk_cost(calls, chunk: int) -> int:
+    """Modelled cost of a frame's measure calls (particle counts) in chunks of ``chunk``: every
+    chunk is scored whole (a partial one is padded) and pays :data:`CALL_OVERHEAD`."""
+    blocks = sum(-(-int(n) // chunk) for n in calls)
+    return blocks * (chunk + CALL_OVERHEAD)
+
+
+def pick_chunk(calls, limit: int = DEFAULT_CHUNK, *, step: int = 8, lowest: int = 64,
+               gain: float = 0.1) -> int:
+    """The chunk for a filter whose frame makes measure calls of ``calls`` particles each:
+    ``limit`` unless a multiple of ``step`` in ``lowest..limit`` cuts :func:`chunk_cost` by at
+    least ``gain`` (IPF's one call of 6561 keeps 512; the factored filter's 648-, 216- and
+    72-particle calls get 216 instead of being padded to 512s). Counts never depend on it."""
+    calls = [int(n) for n in calls if int(n) > 0]
+    if not calls or limit <= lowest:
+        return int(limit)
+    base = chunk_cost(calls, limit)
+    best = min(range(lowest, limit + 1, step), key=lambda c: (chunk_cost(calls, c), -c))
+    return int(best) if chunk_cost(calls, best) <= (1.0 - gain) * base else int(limit)
+
+
 def _grow(old: int, need: int, step: int, cap: int) -> int:
     """A bucket that holds ``need``: unchanged when it already does, else at least 25 % larger than
     before, so a person walking towards a camera costs a few compiles, not one every few frames."""
@@ -214,7 +242,7 @@ class Scorer:
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
-                 kernel: str = "scanline", chunk: int = 512, devices=None):
+                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
         self.cameras = list(cameras)

@@ -26,7 +26,7 @@ from ..body.shape import load_shape
 from ..errors import IPFError, require
 from ..filters import registry
 from ..geometry.world import AXES
-from ..likelihood.scorer import KERNELS
+from ..likelihood.scorer import DEFAULT_CHUNK, KERNELS
 from ..paths import expand_path
 from .settings import (
     DEFAULT_FPS,
@@ -181,8 +181,9 @@ OPTIONS: tuple[Option, ...] = (
            "silhouettes between frames (default on; --no-origin-shift turns it off)"),
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)"),
-    Option("chunk", "--chunk", "int", 512, "particles per compiled call: memory vs speed, never the "
-           "result (default 512)", check=_at_least(1)),
+    Option("chunk", "--chunk", "int", None, "particles per compiled call: memory vs speed, never the "
+           f"result (default {DEFAULT_CHUNK}, or fewer where the filter's calls fit them better: "
+           "the factored filter's 216)", check=_at_least(1)),
     Option("kernel", "--kernel", "choice", "scanline", "raster kernel: scanline (default) or dense; "
            "both give the same pixel counts", choices=KERNELS),
     Option("checkpoint_every", "--checkpoint-every", "int", 10, "write a checkpoint (and run.json) "

@@ -43,6 +43,8 @@ class TrackState(NamedTuple):
     last_good : (D,) the estimate of the last frame that passed it (None before).
     last_attempt : ``next_index`` of the last recovery attempt.
     recoveries : one record per recovery attempt (frame, trigger, stage, accepted, evaluations).
+    explained_levels : per camera, the loss test's explained level set on the first frame
+        (:func:`.loss.clutter_levels`); None before.
     """
 
     next_index: int = 0
@@ -61,6 +63,7 @@ class TrackState(NamedTuple):
     last_good: np.ndarray | None = None
     last_attempt: int = -(1 << 30)
     recoveries: tuple[dict, ...] = ()
+    explained_levels: tuple[float, ...] | None = None
 
 
 class FrameRecord(NamedTuple):
@@ -84,7 +87,8 @@ def save(out_dir: Path, state: TrackState, settings_key: str) -> None:
             "anchor": None if state.anchor is None else state.anchor.to_json(),
             "anchor_height": state.anchor_height, "shape_fit": state.shape_fit,
             "bad_streak": state.bad_streak, "last_attempt": state.last_attempt,
-            "recoveries": list(state.recoveries)}
+            "recoveries": list(state.recoveries),
+            "explained_levels": None if state.explained_levels is None else list(state.explained_levels)}
     arrays = {} if state.filter is None else {"particles": state.filter.particles,
                                               "weights": state.filter.weights}
     if state.last_good is not None:
@@ -105,7 +109,8 @@ def load(out_dir: Path) -> tuple[TrackState, str]:
             init_evaluations=meta["init_evaluations"], reinits=tuple(meta["reinits"]),
             records=tuple(meta["per_frame"]), shape_fit=meta.get("shape_fit"),
             bad_streak=meta["bad_streak"], last_good=arrays.get("last_good"),
-            last_attempt=meta["last_attempt"], recoveries=tuple(meta["recoveries"]))
+            last_attempt=meta["last_attempt"], recoveries=tuple(meta["recoveries"]),
+            explained_levels=None if meta["explained_levels"] is None else tuple(meta["explained_levels"]))
         return state, meta["settings_key"]
     except KeyError as e:  # written by another version of ipf-jax
         raise IPFError(f"checkpoint from another ipf-jax version (no {e}): rerun without --resume",

@@ -59,6 +59,7 @@ from ..likelihood.scorer import (
     Observation,
     Scorer,
     make_observation,
+    pick_chunk,
     scoring_cameras,
     weights_from_counts,
 )
@@ -179,8 +180,8 @@ class Tracker:
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self._filters: dict[int, Filter] = {}
-        self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
-                             chunk=settings.chunk)
+        chunk = settings.chunk or pick_chunk(self.filter.calls)  # padding vs calls: docs/benchmarks.md
+        self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel, chunk=chunk)
         self.key = jax.random.PRNGKey(settings.seed)
 
     @property
@@ -337,7 +338,10 @@ class Tracker:
         scored = self.scorer.evaluations
         cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
         state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
-        bad = state.bad_streak + 1 if loss.fails(cov, self.levels) else 0
+        if state.explained_levels is None:  # the first frame: clutter in a camera's silhouette
+            state = state._replace(explained_levels=loss.clutter_levels(cov, self.levels).explained)
+        levels = self.levels_for(state)
+        bad = state.bad_streak + 1 if loss.fails(cov, levels) else 0
         due = state.next_index - state.last_attempt >= s.recovery_retry
         if status == "tracked" and (low >= s.confidence_patience or (bad >= loss.PATIENCE and due)):
             trigger = "loss test" if bad >= loss.PATIENCE else "confidence"
@@ -345,7 +349,7 @@ class Tracker:
             scored = self.scorer.evaluations
             cov = self.coverage_of(self.estimate(state), seen.obs, state.shape, log)
             state = state._replace(init_evaluations=state.init_evaluations + self.scorer.evaluations - scored)
-            bad = bad if loss.fails(cov, self.levels) else 0
+            bad = bad if loss.fails(cov, levels) else 0
             conf = 1.0
         state = state._replace(bad_streak=bad)
         if bad == 0:
@@ -368,7 +372,14 @@ class Tracker:
 
     @property
     def levels(self) -> loss.LossLevels:
+        """The loss test's levels as set (``--lost-explained``, ``--lost-covered``)."""
         return loss.LossLevels(self.settings.lost_explained, self.settings.lost_covered)
+
+    def levels_for(self, state: TrackState) -> loss.LossLevels:
+        """The levels of this run: per camera once the first frame has set them."""
+        levels = self.levels
+        return levels if state.explained_levels is None else levels._replace(
+            explained=state.explained_levels)
 
     def reinitialise(self, state: TrackState, frame: int, seen: Seen, w_best: float,
                      info: dict) -> tuple[TrackState, str]:
@@ -394,7 +405,7 @@ class Tracker:
         log: list = []
         measure = self.measure(seen.obs, state.shape, log)
         still_lost = lambda q: loss.fails(self.coverage_of(q, seen.obs, state.shape, log),  # noqa: E731
-                                          self.levels)
+                                          self.levels_for(state))
         try:
             res = recover(self.frame_key(frame, 2), [seen.masks[i] for i in active],
                           [self.cameras[i] for i in active], self.U, self.limits, state.shape,
@@ -543,9 +554,11 @@ class Tracker:
                                             [c.name for c in self.dataset.cameras])
             if per_frame and all("mask_quality" in r for r in per_frame) else None,
             "evaluations_per_frame": f.evaluations_per_frame,
+            "chunk": self.scorer.chunk,
             "init_evaluations": state.init_evaluations,
             "reinitialisations": list(state.reinits),
             "recovery": recovery_summary(state.recoveries),
+            "loss_levels": self.levels_for(state)._asdict() if self.settings.loss_test else None,
             "seconds": {"total": round(seconds, 3),
                         "per_tracked_frame_mean": round(float(np.mean(
                             [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},
