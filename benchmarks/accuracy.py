@@ -16,7 +16,7 @@ number, per joint too) and ``DIR/accuracy.md`` (the table).
 
 Set groups: ``walks4`` (every walk, 4 cameras, clean and noisy), ``walks4clean``, ``sts4``
 (sit-to-stand, 4 cameras), ``fewcams`` (every 1- and 2-camera set), ``all``; or a comma list of
-set names.
+groups and set names (``walks4,sts4``).
 """
 from __future__ import annotations
 
@@ -48,7 +48,8 @@ def set_names(spec: str, root: Path) -> list[str]:
     four = lambda motions, noise=("clean", "noisy"): [f"{m}_{n}_4cam" for m in motions for n in noise]  # noqa
     groups = {"walks4": four(WALKS), "walks4clean": four(WALKS, ("clean",)), "sts4": four(STS),
               "fewcams": [n for n in have if not n.endswith("_4cam")], "all": have}
-    names = groups.get(spec) or [s.strip() for s in spec.split(",") if s.strip()]
+    names = list(dict.fromkeys(n for item in spec.split(",") if item.strip()
+                               for n in groups.get(item.strip(), [item.strip()])))
     missing = [n for n in names if n not in have]
     if missing:
         sys.exit(f"error: unknown set(s) {', '.join(missing)} (have: {', '.join(have)})")

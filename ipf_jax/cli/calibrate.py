@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     tmp = out.with_name(out.name + ".tmp")
     try:  # whole or not at all: a refused fit above wrote nothing
+        out.parent.mkdir(parents=True, exist_ok=True)
         tmp.write_text(json.dumps(doc, indent=1) + "\n")
         tmp.replace(out)
     except OSError as e:
