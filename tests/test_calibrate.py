@@ -5,10 +5,11 @@ from __future__ import annotations
 import json
 
 import cv2
+import pytest
 import numpy as np
 
 from ipf_jax.cli import main
-from ipf_jax.data import checkerboard as cb
+from ipf_jax.data import board_calibration, checkerboard as cb
 from ipf_jax.data.calibration import read_calibration, read_opencv
 
 
@@ -83,3 +84,48 @@ def test_floor_board_extrinsics_fit_the_corners_no_worse_than_config_xml(shared_
         print("cam%d: board corners %.2f px (config.xml %.2f px), height difference %+.3f m" % row)
     # every camera stands on one side of the floor (-z up, as config.xml)
     assert all(c.centre[2] < 0 for c in ours)
+
+
+def _look_at(centre, target=(0.35, 0.25, 0.0)):
+    """World->camera (R, t) of a camera at ``centre`` looking at ``target`` (z up, cameras above)."""
+    f = np.asarray(target, float) - centre
+    f /= np.linalg.norm(f)
+    x = np.cross(f, [0.0, 0.0, -1.0])
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(f, x), f])
+    return R, -R @ centre
+
+
+@pytest.mark.parametrize("turned, unposed", [("A", None), ("A", "D"), ("C", "D"), ("B", None)])
+def test_floor_board_numbering_follows_the_files_camera_layout(turned, unposed):
+    """SYNTHETIC: four cameras around an 8x6 floor board (below them: z of the board points away);
+    one detection numbered from the other end; the files' poses are the true layout in another
+    frame and unit (mm, shifted, turned), one camera's file has none. Every camera ends up where
+    it stands, and the camera without a pose is never renumbered."""
+    from ipf_jax.data.board_calibration import _floor_poses
+    board = cb.parse_board("8x6", 0.1)
+    K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+    centres = {"A": [3.0, 2.0, -2.0], "B": [-2.5, 2.2, -2.1], "C": [-2.2, -1.8, -1.9],
+               "D": [2.8, -2.0, -2.2]}
+    obj = board.object_points().astype(float)
+    world_to_file = cv2.Rodrigues(np.array([0.0, 0.0, 0.7]))[0]
+    views, intr = {}, {}
+    for n, c in centres.items():
+        c = np.asarray(c, float)
+        R, t = _look_at(c)
+        uv = cv2.projectPoints(obj, cv2.Rodrigues(R)[0], t, K, np.zeros(5))[0].reshape(-1, 2)
+        if n == turned:
+            uv = uv[::-1].copy()
+        views[n] = cb.View(n, np.arange(len(obj)), uv)
+        file_centre = None if n == unposed else 1000.0 * (world_to_file @ c + [5.0, -3.0, 1.0])
+        intr[n] = cb.Intrinsics(K, np.zeros(5), float("nan"), 0, file_centre)
+    req = board_calibration.Request({}, {}, {n: "x" for n in centres})
+    poses, _, _, notes = _floor_poses(board, req, views, intr)
+    found = {n: -R.T @ t for n, (R, t) in poses.items()}
+    names = list(centres)
+    d_true = [np.linalg.norm(np.subtract(centres[a], centres[b])) for a in names for b in names if a < b]
+    d_found = [np.linalg.norm(found[a] - found[b]) for a in names for b in names if a < b]
+    assert np.allclose(d_found, d_true, atol=1e-3), (d_found, d_true)
+    assert notes and "numbered from the other end" in notes[0]
+    if unposed:
+        assert unposed not in notes[0].split(":")[0]

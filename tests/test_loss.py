@@ -9,6 +9,7 @@ from ipf_jax.body import default_shape
 from ipf_jax.body.limits import load_limits
 from ipf_jax.body.model import DOF_INDEX
 from ipf_jax.data.dataset import MemoryDataset
+from ipf_jax.errors import IPFError
 from ipf_jax.geometry.posing import POSTURES_DEG, gait_pose, place_on_floor, posture_pose
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.likelihood.scorer import Scorer, make_observation, weights_from_counts
@@ -49,6 +50,10 @@ def test_clutter_lowers_a_cameras_explained_level_from_the_first_frame():
     later = loss.coverage(np.array([[78, 22, 5], [42, 58, 4], [70, 30, 10], [0, 0, 0]]),
                           np.array([True, True, True, False]))
     assert loss.fails(later, loss.LossLevels(0.60, 0.70)) and not loss.fails(later, levels)
+    blown = loss.coverage(np.array([[5, 95, 0], [80, 20, 5]]), np.array([True, True]))
+    assert loss.clutter_levels(blown).explained == (loss.CLUTTER_FLOOR, 0.60)  # never switched off
+    with pytest.raises(IPFError, match="loss levels for 4 cameras, the frame has 2"):
+        loss.fails(blown, levels)  # e.g. a resumed run whose calibration lost cameras
 
 
 @pytest.fixture(scope="module")

@@ -48,7 +48,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "world frame")
     p.add_argument("--flip", action="append", default=[], metavar="NAME",
                    help="number this camera's floor board from the other end (a board that looks "
-                        "the same after a half turn)")
+                        "the same after a half turn); given, the numbering is no longer chosen "
+                        "from the --intrinsics files' camera layout")
     add_common(p, "size", metavar="WxH", help="image size when only --intrinsics are given")
     p.add_argument("--max-error", type=float, default=1.0,
                    help="refuse a camera whose reprojection error exceeds this, px (default 1)")

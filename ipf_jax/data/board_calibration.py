@@ -117,8 +117,11 @@ def _flips_from_layout(board, floor_views, intr) -> tuple[dict, list[str]]:
 
     A half turn of a symmetric chessboard moves a camera's centre to the other side of the board;
     distances between camera centres do not depend on the world frame or its units, so the
-    numbering whose pairwise distances are one scale of the files' is the right one. The first
-    camera keeps its numbering (flipping them all turns the world, not the layout)."""
+    numbering whose pairwise distances are one scale of the files' is the right one. Renumbering
+    all the checked cameras turns their world, not their layout, so of a choice and its opposite
+    the one that renumbers fewer is taken: most detections are taken to be right, as the
+    numbering of a camera whose file holds no pose (never renumbered: the layout cannot check it)
+    must be."""
     names = list(floor_views)
     flips = {n: False for n in names}
     known = [n for n in names if intr[n].centre is not None]
@@ -139,9 +142,13 @@ def _flips_from_layout(board, floor_views, intr) -> tuple[dict, list[str]]:
     best = int(np.argmin(spread))
     if options[best] == options[0] or spread[best] * LAYOUT_GAIN > spread[0]:
         return flips, []
-    flips.update(options[best])
+    chosen = {n: options[best].get(n, False) for n in names}
+    opposite = {n: (not chosen[n]) if n in known else False for n in names}
+    if sum(opposite.values()) < sum(chosen.values()):
+        chosen = opposite
+    flips.update(chosen)
     ratio, first = np.exp(log_ratios(options[best])), np.exp(log_ratios(options[0]))
-    turned = [n for n in known if options[best][n]]
+    turned = [n for n in names if chosen[n]]
     notes = [f"{', '.join(turned)}: floor board numbered from the other end, so that the camera "
              f"layout agrees with the poses in the --intrinsics files (their camera distances are "
              f"{ratio.min():.2f}-{ratio.max():.2f}x these, {first.min():.2f}-{first.max():.2f}x "

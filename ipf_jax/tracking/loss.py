@@ -35,14 +35,17 @@ frame, however well the body fits: on the real Utrecht clip of a seated person t
 0.49-0.51 of camera 3's silhouette explained by a body that lies on it (covered 0.96) and fits
 all four views. So each camera's explained level is taken relative to the first frame: where the
 initial estimate lies on the silhouette (covered >= :data:`CLUTTER_COVERED`), the camera's level
-is at most its first explained share less :data:`CLUTTER_MARGIN` (:func:`clutter_levels`). A
-start that explains ``>= 0.70`` (every visible walk) leaves the level as it is.
+is at most its first explained share less :data:`CLUTTER_MARGIN`, never below
+:data:`CLUTTER_FLOOR` (:func:`clutter_levels`). A start that explains ``>= 0.70`` (every visible
+walk) leaves the level as it is. The levels are set once, on the first frame, for the whole run.
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
+
+from ..errors import require
 
 
 class LossLevels(NamedTuple):
@@ -57,6 +60,7 @@ LEVELS = LossLevels()
 PATIENCE = 2  # failing frames in a row before the track counts as lost
 CLUTTER_COVERED = 0.85  # the first estimate lies on the silhouette at least this much...
 CLUTTER_MARGIN = 0.10  # ...then a camera's explained level is at most its first share less this
+CLUTTER_FLOOR = 0.30  # but never below this (a first mask blown out by light keeps a test)
 
 
 class Coverage(NamedTuple):
@@ -87,17 +91,21 @@ def coverage(counts: np.ndarray, active: np.ndarray) -> Coverage:
 def fails(cov: Coverage, levels: LossLevels = LEVELS) -> bool:
     """True when some camera's explained or covered share is below its level (inactive cameras,
     NaN, never fail)."""
-    explained = np.broadcast_to(np.asarray(levels.explained, np.float64), cov.explained.shape)
+    explained = np.asarray(levels.explained, np.float64)
+    require(explained.ndim == 0 or explained.shape == cov.explained.shape,
+            f"loss levels for {explained.size} cameras, the frame has {cov.explained.size}")
     return bool(np.any(cov.explained < explained) or np.any(cov.covered < levels.covered))
 
 
 def clutter_levels(first: Coverage, levels: LossLevels = LEVELS) -> LossLevels:
     """``levels`` with a per-camera explained level: at most the first frame's explained share
-    less :data:`CLUTTER_MARGIN` in each camera where the first estimate lies on the silhouette
-    (covered >= :data:`CLUTTER_COVERED`); see the module doc."""
+    less :data:`CLUTTER_MARGIN` (never below :data:`CLUTTER_FLOOR`) in each camera where the
+    first estimate lies on the silhouette (covered >= :data:`CLUTTER_COVERED`); see the module
+    doc."""
     base = np.broadcast_to(np.asarray(levels.explained, np.float64), first.explained.shape)
     clean = np.isfinite(first.explained) & (first.covered >= CLUTTER_COVERED)
-    explained = np.where(clean, np.minimum(base, first.explained - CLUTTER_MARGIN), base)
+    lowered = np.maximum(CLUTTER_FLOOR, first.explained - CLUTTER_MARGIN)
+    explained = np.where(clean, np.minimum(base, lowered), base)
     return levels._replace(explained=tuple(round(float(v), 4) for v in explained))
 
 
