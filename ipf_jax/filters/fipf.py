@@ -25,10 +25,12 @@ exactly, never exceeded).
 """
 from __future__ import annotations
 
+import functools
 import itertools
 from typing import NamedTuple
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ..body.limits import Limits
@@ -170,13 +172,25 @@ def _stages(settings: FIPFSettings, fps: float) -> list[_Stage]:
     return out
 
 
-def _children(key: jax.Array, kept: np.ndarray, stage: _Stage, scale: float) -> np.ndarray:
-    """(M x G, D) children of the kept particles over one group's grid (scaled by ``scale``)."""
+@functools.partial(jax.jit, static_argnames="shapes")
+def _standard_normals(keys: jax.Array, shapes: tuple) -> tuple:
+    """A frame's draws in one compiled call: ``jax.random.normal(keys[i], shape)`` for each
+    ``(i, shape)`` of ``shapes``, bit for bit what separate calls give (one dispatch, not 11)."""
+    return tuple(jax.random.normal(keys[i], s, dtype=jnp.float32) for i, s in shapes)
+
+
+def _children(keys: jax.Array, i: int, kept: np.ndarray, stage: _Stage, scale: float,
+              z: np.ndarray | None = None) -> np.ndarray:
+    """(M x G, D) children of the kept particles over one group's grid (scaled by ``scale``),
+    the noise DOFs jittered with ``keys[i]``'s standard normals: ``z`` when drawn already."""
     m, g = len(kept), len(stage.offsets)
     new = np.repeat(kept, g, axis=0)  # child j*G + k = kept j, grid point k
     new[:, stage.grid_idx] += np.tile(stage.offsets * scale, (m, 1))
     if len(stage.noise_idx):
-        jitter = gaussian_noise(key, (m * g, len(stage.noise_idx)), stage.noise_std * scale)
+        shape = (m * g, len(stage.noise_idx))
+        jitter = (np.asarray(z, np.float64) * (stage.noise_std * scale)
+                  if z is not None and z.shape == shape
+                  else gaussian_noise(keys[i], shape, stage.noise_std * scale))
         jitter[np.tile(stage.centre, m)] = 0.0  # the centre child is the kept particle itself
         new[:, stage.noise_idx] += jitter
     return new
@@ -194,13 +208,19 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
         kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
         seen_p, seen_w = [], []
         keys = jax.random.split(rng_key, settings.rounds * len(stages) + 1)
+        shapes = tuple((r * len(stages) + g, (len(kept) * len(st.offsets), len(st.noise_idx)))
+                       for r in range(settings.rounds) for g, st in enumerate(stages)
+                       if len(st.noise_idx)) + (((len(keys) - 1, (settings.filler, NUM_DOF)),)
+                                                if settings.filler else ())
+        z = dict(zip((i for i, _ in shapes), (np.asarray(a) for a in _standard_normals(keys, shapes))))
         for r in range(settings.rounds):
             scale = settings.shrink ** r
             for g, stage in enumerate(stages):
-                cand = _children(keys[r * len(stages) + g], kept, stage, scale)
+                i = r * len(stages) + g
+                cand = _children(keys, i, kept, stage, scale, z.get(i))
                 if r == 0 and g == 0 and settings.filler:
                     extra = kept[np.arange(settings.filler) % m]
-                    extra = extra + gaussian_noise(keys[-1], extra.shape, all_std)
+                    extra = extra + np.asarray(z[len(keys) - 1], np.float64) * all_std
                     cand = np.concatenate([cand, extra])
                 cand = limits.clip(cand)
                 w = np.asarray(measure(cand), float)
