@@ -1,7 +1,18 @@
-"""Process-wide JAX settings: the persistent compilation cache (compiles once per machine)."""
+"""Process-wide JAX settings: the persistent compilation cache (compiles once per machine), and
+releasing compiled programs before a long-lived process runs out of memory maps.
+
+Every compiled XLA CPU program holds a few memory mappings until JAX's in-memory caches drop it.
+A process that compiles many shapes (a sweep run in-process, a test session) can reach the
+kernel's per-process limit (Linux ``vm.max_map_count``, 65,530 by default), and the next mapping
+fails inside XLA as a segmentation fault, not as a Python error. :func:`release_compiled` clears
+JAX's caches once the process has used a given share of that limit; programs needed again come
+back from the persistent cache.
+"""
 from __future__ import annotations
 
+import gc
 import os
+from pathlib import Path
 
 import jax
 
@@ -26,3 +37,31 @@ def configure() -> None:
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+
+
+#: Share of the kernel's memory-map limit at which :func:`release_compiled` clears JAX's caches.
+MAP_SHARE = 0.5
+_PROC_MAPS = Path("/proc/self/maps")
+_MAX_MAPS = Path("/proc/sys/vm/max_map_count")
+
+
+def map_usage() -> tuple[int, int] | None:
+    """(memory maps of this process, the kernel's limit), or None where /proc does not tell."""
+    try:
+        with _PROC_MAPS.open("rb") as f:
+            used = sum(1 for _ in f)
+        limit = int(_MAX_MAPS.read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+    return used, limit
+
+
+def release_compiled(share: float = MAP_SHARE) -> bool:
+    """Clear JAX's in-memory compiled programs when this process uses more than ``share`` of the
+    memory-map limit; True when it cleared. A no-op where the limit cannot be read."""
+    usage = map_usage()
+    if usage is None or usage[0] <= share * usage[1]:
+        return False
+    jax.clear_caches()
+    gc.collect()
+    return True

@@ -30,3 +30,11 @@ def shared_data():
 @pytest.fixture(scope="session")
 def bodytrack_dir():
     return _data("parsec_bodytrack/sequenceB_2")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _release_compiled_programs():
+    """After each test module, drop JAX's compiled programs once the session holds many: the whole
+    suite compiles thousands of shapes, and past the kernel's memory-map limit XLA segfaults."""
+    yield
+    jax_setup.release_compiled()

@@ -213,3 +213,20 @@ def test_killed_sweep_resumes_without_recomputing_finished_cells(scene, tmp_path
     assert len(read_summary(whole / "summary.csv")) == n_cells
     for p in (whole / "cells").glob("*.json"):  # same seeds -> same results, cell by cell
         assert json.loads(p.read_text())["result"] == json.loads((killed / "cells" / p.name).read_text())["result"]
+
+
+def test_release_compiled_frees_memory_maps_past_the_share():
+    import jax
+    import jax.numpy as jnp
+
+    from ipf_jax import jax_setup
+
+    if jax_setup.map_usage() is None:
+        pytest.skip("no /proc memory-map counts here")
+    for n in range(1, 41):
+        jax.jit(lambda x: jnp.cos(x) * 3 - x.max())(jnp.ones(n)).block_until_ready()
+    used, limit = jax_setup.map_usage()
+    assert not jax_setup.release_compiled(share=1.0)  # under the limit: nothing cleared
+    assert jax_setup.map_usage()[0] >= used - 5
+    assert jax_setup.release_compiled(share=0.0)
+    assert jax_setup.map_usage()[0] < used - 40  # 40 programs' mappings are gone

@@ -16,6 +16,7 @@ import os
 from pathlib import Path
 
 from ..errors import IPFError, require
+from ..jax_setup import release_compiled
 from .runner import execute
 
 BACKENDS = ("local", "ray")
@@ -30,7 +31,9 @@ class LocalBackend:
 
     def run(self, cells, runs_dir: Path):
         for cell in cells:
-            yield cell, execute(cell.spec, Path(runs_dir) / cell.id)
+            result = execute(cell.spec, Path(runs_dir) / cell.id)
+            release_compiled()  # many cells' shapes in one process: keep clear of the map limit
+            yield cell, result
 
     def close(self) -> None:
         pass
