@@ -21,6 +21,7 @@ import numpy as np
 
 from ..data.checkpoint import NAME as CHECKPOINT
 from ..errors import IPFError
+from ..jax_setup import release_compiled
 
 
 def _run_summary(run: dict, joints_csv: Path) -> tuple[dict, dict]:
@@ -100,4 +101,6 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
         record.update(status="failed", error=_failure(e))
     record["host"] = {"hostname": socket.gethostname(), "pid": os.getpid(),
                       "wall_seconds": round(time.perf_counter() - t0, 3)}
+    # a process runs many cells (local backend, a reused Ray worker): keep clear of the map limit
+    release_compiled()
     return record
