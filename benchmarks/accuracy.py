@@ -1,6 +1,6 @@
 """Accuracy over every visible render: track each set with the same settings, score it, tabulate.
 
-    python benchmarks/accuracy.py --out DIR [--sets walks4] [--python-path TREE] [-- TRACK ARGS]
+    python benchmarks/accuracy.py --out DIR [--sets walks4] [--seeds 0] [--python-path TREE] [-- TRACK ARGS]
 
 For each set of ``../shared/data/mocap_walk_render`` (or ``$IPF_JAX_DATA``) named by ``--sets``, runs
 ``ipf-jax track SET --out DIR/runs/SET [TRACK ARGS]`` in a subprocess (``--python-path TREE`` runs the
@@ -13,6 +13,13 @@ tracker declared ``lost`` (nan rows) are not scored in those; ``mpjpe_guess_mm``
 (``declared_lost`` counts them; without any, they equal the plain figures). Finished sets
 are skipped on a rerun (delete ``DIR/runs/SET`` to redo one). Writes ``DIR/accuracy.json`` (every
 number, per joint too) and ``DIR/accuracy.md`` (the table).
+
+``--seeds 0,1,2`` tracks every set once per seed (``--seed K``; runs in ``DIR/runs/SET@seedK``
+when there is more than one seed) and adds a table over the seeds: per set the mean, lowest and
+highest MPJPE, offset-free error and hip/knee/ankle offset. One seed's figure is one draw: on the
+visible walks a set's MPJPE moves by up to 11 mm between seeds (and as much between machines with
+the same seed: float rounding sends the searches down other paths), so compare defaults on the mean
+over seeds and sets. ``accuracy.json`` records the library versions and the processor.
 
 Set groups: ``walks4`` (every walk, 4 cameras, clean and noisy), ``walks4clean``, ``sts4``
 (sit-to-stand, 4 cameras), ``fewcams`` (every 1- and 2-camera set), ``all``; or a comma list of
@@ -56,8 +63,9 @@ def set_names(spec: str, root: Path) -> list[str]:
     return names
 
 
-def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None) -> dict:
-    run_dir = out / "runs" / name
+def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None,
+            run_name: str | None = None) -> dict:
+    run_dir = out / "runs" / (run_name or name)
     done = run_dir / "run.json"
     if not (done.is_file() and (run_dir / "joints.csv").is_file() and json.loads(done.read_text())
             .get("frames", {}).get("done") == json.loads(done.read_text()).get("frames", {}).get("count")):
@@ -124,8 +132,11 @@ def markdown(rows: list[dict]) -> str:
         return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
     lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    several = len({r.get("seed") for r in rows}) > 1
     for r in rows:
         cells = [r["set"], f"error: {r['error']}"] if "error" in r else [fmt(c, r[c]) for c in COLUMNS]
+        if several:
+            cells[0] += f" (seed {r['seed']})"
         lines.append("| " + " | ".join(cells) + " |")
     ok = [r for r in rows if "error" not in r]
     if ok:
@@ -134,27 +145,86 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+SEED_COLUMNS = ("mpjpe_mm", "offset_free_mm", "leg_offset_mm")
+
+
+def over_seeds(rows: list[dict]) -> list[dict]:
+    """Per set: mean, lowest and highest of :data:`SEED_COLUMNS` over its seeds' rows."""
+    out = []
+    for name in dict.fromkeys(r["set"] for r in rows):
+        ok = [r for r in rows if r["set"] == name and "error" not in r]
+        if ok:
+            out.append({"set": name, "seeds": [r["seed"] for r in ok],
+                        **{c: {"mean": float(np.mean([r[c] for r in ok])), "min": float(min(r[c] for r in ok)),
+                               "max": float(max(r[c] for r in ok))} for c in SEED_COLUMNS}})
+    return out
+
+
+def seeds_markdown(table: list[dict]) -> str:
+    head = ["set", "seeds"] + [f"{c} mean (min-max)" for c in SEED_COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in table:
+        lines.append(f"| {r['set']} | {len(r['seeds'])} | " + " | ".join(
+            f"{r[c]['mean']:.1f} ({r[c]['min']:.1f}-{r[c]['max']:.1f})" for c in SEED_COLUMNS) + " |")
+    if table:
+        lines.append("| **mean** | | " + " | ".join(
+            f"{np.mean([r[c]['mean'] for r in table]):.1f}" for c in SEED_COLUMNS) + " |")
+    return "\n".join(lines)
+
+
+def environment() -> dict:
+    """What produced the numbers: library versions, Python, the processor."""
+    import platform
+    from importlib import metadata
+
+    def version(dist):
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return None
+
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").is_file() \
+        else platform.processor()
+    return {"python": platform.python_version(), "cpu": cpu, "cores": os.cpu_count(),
+            **{d: version(d) for d in ("ipf-jax", "jax", "jaxlib", "numpy", "scipy", "opencv-python-headless")}}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", required=True, help="output folder (runs/, accuracy.json, accuracy.md)")
     ap.add_argument("--sets", default="walks4", help="set group or comma list (see module doc)")
+    ap.add_argument("--seeds", default="0", help="comma list of seeds: every set once per seed")
     ap.add_argument("--python-path", help="run the ipf_jax found in this folder (another revision)")
     ap.add_argument("track_args", nargs="*", help="options passed to ipf-jax track (after --)")
     args = ap.parse_args(argv)
+    try:
+        seeds = [int(k) for k in args.seeds.split(",") if k.strip()]
+    except ValueError:
+        sys.exit(f"error: --seeds must be a comma list of integers, got {args.seeds!r}")
+    if not seeds or "--seed" in args.track_args:
+        sys.exit("error: give the seeds with --seeds (not --seed after --)")
     root = shared_data_dir() / "mocap_walk_render"
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for name in set_names(args.sets, root):
-        row = run_set(name, root, out, args.track_args, args.python_path)
+    for seed, name in ((k, n) for k in seeds for n in set_names(args.sets, root)):
+        row = run_set(name, root, out, [*args.track_args, "--seed", str(seed)], args.python_path,
+                      name if len(seeds) == 1 else f"{name}@seed{seed}")
+        row["seed"] = seed
         rows.append(row)
-        print(" ".join(f"{c}={row[c]:.1f}" if isinstance(row.get(c), float) else f"{c}={row.get(c)}"
+        print(f"seed={seed} " * (len(seeds) > 1) + " ".join(f"{c}={row[c]:.1f}" if isinstance(row.get(c), float) else f"{c}={row.get(c)}"
                        for c in COLUMNS if c in row) + (f" error={row['error']}" if "error" in row else ""),
               flush=True)
-    doc = {"track_args": args.track_args, "python_path": args.python_path, "rows": rows}
+    doc = {"track_args": args.track_args, "seeds": seeds, "python_path": args.python_path,
+           "environment": environment(), "rows": rows}
+    text = markdown(rows)
+    if len(seeds) > 1:
+        doc["over_seeds"] = over_seeds(rows)
+        text += "\n\nOver the seeds " + ", ".join(map(str, seeds)) + ":\n\n" + seeds_markdown(doc["over_seeds"])
     (out / "accuracy.json").write_text(json.dumps(doc, indent=1))
-    (out / "accuracy.md").write_text(markdown(rows) + "\n")
-    print(markdown(rows))
+    (out / "accuracy.md").write_text(text + "\n")
+    print(text)
     return 0
 
 
