@@ -17,7 +17,7 @@ number, per joint too) and ``DIR/accuracy.md`` (the table).
 ``--seeds 0,1,2`` tracks every set once per seed (``--seed K``; runs in ``DIR/runs/SET@seedK``
 when there is more than one seed) and adds a table over the seeds: per set the mean, lowest and
 highest MPJPE, offset-free error and hip/knee/ankle offset. One seed's figure is one draw: on the
-visible walks a set's MPJPE moves by up to 11 mm between seeds (and as much between machines with
+visible walks a set's MPJPE moves by up to 12 mm between seeds (and as much between machines with
 the same seed: float rounding sends the searches down other paths), so compare defaults on the mean
 over seeds and sets. ``accuracy.json`` records the library versions and the processor.
 

@@ -1,7 +1,7 @@
 """Tracking speed of the working tree against another git revision, measured in one run.
 
     python benchmarks/vs_revision.py --rev REV | --tree DIR [--cameras 4] [--frames 12] [--repeats 3]
-                                     [--json FILE] -- TRACK OPTIONS (e.g. --filter apf --budget 20000)
+                                     [--data SET] [--json FILE] -- TRACK OPTIONS (e.g. --filter apf)
 
 Both trees track the same frames with the same options through ``python -m ipf_jax.cli track``
 (an interface every revision has), alternately (A B A B ...), so drifts of the machine's speed hit
@@ -15,6 +15,12 @@ keeps Camera1) written ``--frames`` times alternately into a temporary bodytrack
 started from bodytrack's ``InitialPose.txt`` (no automatic initialisation). The first run of each
 tree compiles (persistent cache) and is not counted. Prints, per repeat and as the median, each
 tree's seconds per frame and the ratio REV / working tree (> 1: the working tree is faster).
+
+``--data SET`` tracks a data set's first ``--frames`` frames as a user would (automatic
+initialisation and, with today's defaults, the shape fit; ``--cameras`` is then the set's), e.g. a
+``mocap_walk_render`` set: the seconds are still those of the tracked frames only (``run.json``'s
+``per_tracked_frame_mean``, the initialisation frame excluded), which then carry whatever the
+one-off searches left behind (e.g. window sizes).
 """
 from __future__ import annotations
 
@@ -52,10 +58,14 @@ def make_dataset(root: Path, cameras: int, frames: int) -> Path:
     return root
 
 
-def run_track(tree: Path, data: Path, out: Path, extra: list[str]) -> float:
+def run_track(tree: Path, data: Path, out: Path, extra: list[str], frames: int | None = None) -> float:
+    """One track with ``tree``'s ipf_jax: bodytrack's initial pose, or (``frames``) the data set's
+    first frames from an automatic initialisation. Returns s per tracked frame."""
     env = dict(os.environ, PYTHONPATH=str(tree))
+    start = (["--init-pose", str(data / "InitialPose.txt"), "--up", "+z"] if frames is None
+             else ["--frames", f"0:{frames}"])
     cmd = [sys.executable, "-m", "ipf_jax.cli", "track", str(data), "--out", str(out), "--quiet",
-           "--init-pose", str(data / "InitialPose.txt"), "--up", "+z", *extra]
+           *start, *extra]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tempfile.gettempdir(),
                           check=False)
     if proc.returncode != 0:
@@ -72,6 +82,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cameras", type=int, default=4)
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--data", help="track this data set's first --frames frames, initialised "
+                    "automatically (default: sequenceB_2 0, 1, 0, ... from bodytrack's pose)")
     ap.add_argument("--json", help="write the measurements here")
     ap.add_argument("track_args", nargs="*", help="options for ipf-jax track (after --)")
     args = ap.parse_args(argv)
@@ -83,18 +95,22 @@ def main(argv=None) -> int:
     else:
         args.rev = str(other)
     try:
-        data = make_dataset(tmp / "data", args.cameras, args.frames)
+        own = Path(args.data).resolve() if args.data else None
+        data = own or make_dataset(tmp / "data", args.cameras, args.frames)
+        frames = args.frames if own else None
         trees = {"working tree": REPO, args.rev: other}
         for name, tree in trees.items():  # compile (persistent cache), not counted
-            run_track(tree, data, tmp / f"warm-{abs(hash(name))}", args.track_args)
+            run_track(tree, data, tmp / f"warm-{abs(hash(name))}", args.track_args, frames)
         times = {name: [] for name in trees}
         for r in range(args.repeats):
             for name, tree in trees.items():
-                times[name].append(run_track(tree, data, tmp / f"run{r}-{abs(hash(name))}", args.track_args))
+                times[name].append(run_track(tree, data, tmp / f"run{r}-{abs(hash(name))}",
+                                             args.track_args, frames))
             print(f"repeat {r + 1}: " + ", ".join(f"{n} {t[-1]:.4f} s/frame" for n, t in times.items())
                   + f", ratio {times[args.rev][-1] / times['working tree'][-1]:.2f}", flush=True)
         ratios = [a / b for a, b in zip(times[args.rev], times["working tree"])]
-        doc = {"rev": args.rev, "track_args": args.track_args, "cameras": args.cameras,
+        doc = {"rev": args.rev, "track_args": args.track_args, "data": args.data or DATA,
+               "cameras": args.cameras if own is None else None,
                "frames": args.frames, "seconds_per_frame": times,
                "ratio_rev_over_working_tree": ratios, "median_ratio": float(np.median(ratios))}
         print(f"median: {args.rev} / working tree = {doc['median_ratio']:.2f}")

@@ -150,3 +150,40 @@ def test_chunk_sizes_follow_the_filters_calls():
     assert pick_chunk(fipf.calls) == 216
     assert sum(-(-n // 216) * 216 for n in fipf.calls) == 6912
     assert sum(-(-n // 512) * 512 for n in fipf.calls) == 11264
+
+
+def test_window_buckets_come_from_a_fixed_ladder():
+    """Sizes are rungs (multiples of the step, >= 25 % apart, ending at the cap); they grow to
+    the rung that holds the need and shrink only when asked (a new frame)."""
+    from ipf_jax.likelihood.scorer import _bucket, _ladder
+    rungs = _ladder(8, 240)
+    assert rungs[0] == 8 and rungs[-1] == 240 and all(r % 8 == 0 for r in rungs)
+    assert all(b >= a + max(8, a // 4) for a, b in zip(rungs[:-2], rungs[1:-1]))
+    assert _bucket(0, 50, 8, 240) == 56  # the smallest rung holding 50
+    assert _bucket(56, 30, 8, 240) == 56  # within a frame: never smaller
+    assert _bucket(120, 30, 8, 240, shrink=True) == 32
+    assert _bucket(56, 50, 8, 240, shrink=True) == 56
+    assert _bucket(56, 500, 8, 240) == 240  # capped at the image
+
+
+def test_new_frame_shrinks_windows_after_a_wide_search_and_keeps_counts(scene):
+    """A wide spread (an initialisation) grows the windows; once SHRINK_FRAMES frames have needed
+    less, new_frame gives smaller ones, and their counts equal those of the whole image."""
+    from ipf_jax.likelihood.scorer import SHRINK_FRAMES
+    cams, q, masks, particles = scene
+    obs = make_observation(list(masks[1]))
+    scorer = Scorer(cams, SHAPE, U, chunk=16)
+    wide = particles.copy()
+    wide[:, 0] += np.linspace(-0.8, 0.8, len(wide))
+    scorer.counts(wide, obs)
+    big = scorer.sizes
+    narrow = np.repeat(particles[:1], 16, axis=0)
+    for _ in range(SHRINK_FRAMES):  # the wide frame is among the last ones: nothing shrinks
+        scorer.new_frame()
+        assert scorer.sizes == big
+        scorer.counts(narrow, obs)
+    scorer.new_frame()  # now every remembered frame is a narrow one
+    assert all(s.win_rows <= b.win_rows and s.rows <= b.rows for s, b in zip(scorer.sizes, big))
+    assert scorer.sizes != big
+    got = scorer.counts(narrow, obs)
+    np.testing.assert_array_equal(got, Scorer(cams, SHAPE, U, chunk=16).counts(narrow, obs, full_roi=True))

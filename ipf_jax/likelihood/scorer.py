@@ -34,6 +34,7 @@ chunks so memory stays bounded, and a chunk is sharded over all local devices.
 """
 from __future__ import annotations
 
+import collections
 import itertools
 from typing import NamedTuple
 
@@ -66,6 +67,9 @@ DEFAULT_CHUNK = 512
 #: chunks of 128 / 216 / 256 particles took 0.79 / 0.66 / 0.72 of the time chunks of 512 took; the
 #: cost model of :func:`pick_chunk` gives 0.80 / 0.66 / 0.75.
 CALL_OVERHEAD = 32
+#: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
+#: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
+SHRINK_FRAMES = 8
 
 
 def scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
@@ -224,12 +228,23 @@ def pick_chunk(calls, limit: int = DEFAULT_CHUNK, *, step: int = 8, lowest: int 
     return int(best) if chunk_cost(calls, best) <= (1.0 - gain) * base else int(limit)
 
 
-def _grow(old: int, need: int, step: int, cap: int) -> int:
-    """A bucket that holds ``need``: unchanged when it already does, else at least 25 % larger than
-    before, so a person walking towards a camera costs a few compiles, not one every few frames."""
-    if need <= old:
-        return old
-    return _round_up(max(need, old + old // 4), step, cap)
+def _ladder(step: int, cap: int) -> list[int]:
+    """The bucket sizes one static size may take: multiples of ``step`` growing by >= 25 % a rung,
+    ending at ``cap`` (a fixed set, so shrinking and growing again reuse compiled programs)."""
+    rungs = [min(step, cap)]
+    while rungs[-1] < cap:
+        rungs.append(_round_up(max(rungs[-1] + step, rungs[-1] + rungs[-1] // 4), step, cap))
+    return rungs
+
+
+def _bucket(old: int, need: int, step: int, cap: int, shrink: bool = False) -> int:
+    """The bucket for ``need``: the smallest rung that holds it when that is larger than ``old``
+    (a person walking towards a camera costs a few compiles, not one every few frames); with
+    ``shrink`` (once per frame, on the frame's largest need), also when it is smaller. Else
+    ``old``. The rungs are a fixed set, so a size met again reuses its compiled program."""
+    rungs = _ladder(step, cap)
+    new = next(r for r in rungs if r >= min(max(need, 1), cap))
+    return new if new > old or shrink else old
 
 
 class Scorer:
@@ -263,6 +278,8 @@ class Scorer:
         self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
         self._whole = None if mesh is None else NamedSharding(mesh, PartitionSpec())
         self.sizes: list[Sizes] = []  # per camera, set by :meth:`plan`
+        self._need: np.ndarray | None = None  # (C, 4) largest sizes asked since :meth:`new_frame`
+        self._recent: collections.deque = collections.deque(maxlen=SHRINK_FRAMES)  # the last frames' needs
         self.evaluations = 0  # particles scored so far (likelihood evaluations)
 
     def set_shape(self, shape: BodyShape) -> None:
@@ -325,18 +342,12 @@ class Scorer:
 
         win_r, grid_r, g_row = span(r_lo, r_hi)
         win_w, grid_w, g_word = span(w_lo, w_hi)
-        # per camera (a camera nearer the person needs bigger windows); buckets only grow;
-        # rows in steps of 8 (windows) and 16 (grid), words exactly, growing by >= 25 %
-        sizes = []
-        for c in range(n_cam):
-            old = self.sizes[c] if len(self.sizes) == n_cam else Sizes(0, 0, 0, 0)
-            n_win = _grow(old.win_rows, int(win_r[c]), 8, self.h_pad)
-            n_win_words = _grow(old.win_words, int(win_w[c]), 1, self.w_words)
-            n_rows = _grow(old.rows, max(n_win, int(grid_r[c])), 16, self.h_pad)
-            n_words = _grow(old.words, max(n_win_words, int(grid_w[c])), 2, self.w_words)
-            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
-        self.sizes = sizes
-        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*sizes))
+        # per camera (a camera nearer the person needs bigger windows); buckets from ladders
+        # (_bucket) that only grow here and shrink in new_frame
+        need = np.stack([win_r, win_w, grid_r, grid_w], 1).astype(np.int64)
+        self._need = need if self._need is None or len(self._need) != n_cam else np.maximum(self._need, need)
+        self.sizes = self._buckets(need, shrink=False)
+        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*self.sizes))
         row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
         word0 = np.minimum(g_word[:, None], self.w_words - n_words)
         # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
@@ -344,6 +355,32 @@ class Scorer:
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
                        win_rows.astype(np.int32), win_words.astype(np.int32))
+
+    def _buckets(self, need: np.ndarray, shrink: bool) -> list[Sizes]:
+        """Per camera, the static sizes holding ``need`` (C, 4): window rows and words, grid rows
+        and words, from fixed ladders (:func:`_bucket`)."""
+        sizes = []
+        for c, (win_r, win_w, grid_r, grid_w) in enumerate(need.tolist()):
+            old = self.sizes[c] if len(self.sizes) == len(need) else Sizes(0, 0, 0, 0)
+            n_win = _bucket(old.win_rows, win_r, 8, self.h_pad, shrink)
+            n_win_words = _bucket(old.win_words, win_w, 1, self.w_words, shrink)
+            n_rows = max(n_win, _bucket(old.rows, grid_r, 16, self.h_pad, shrink))
+            n_words = max(n_win_words, _bucket(old.words, grid_w, 2, self.w_words, shrink))
+            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
+        return sizes
+
+    def new_frame(self) -> None:
+        """A new frame starts: the window buckets shrink to the largest need of the last
+        :data:`SHRINK_FRAMES` frames when that is a smaller rung (the wide spread of an
+        initialisation or a recovery search does not make every later frame pay its windows;
+        within a frame they only grow, and waiting a few frames keeps a size that a frame in two
+        needs, so it is not compiled again and again). Counts never depend on the windows."""
+        if self._need is not None:
+            self._recent.append(self._need)
+        self._need = None
+        if (len(self._recent) == self._recent.maxlen and len(self.sizes) == len(self._recent[-1])
+                and all(len(n) == len(self.sizes) for n in self._recent)):
+            self.sizes = self._buckets(np.max(np.stack(self._recent), axis=0), shrink=True)
 
     def stages(self, particles: np.ndarray, obs: Observation) -> dict:
         """Each compiled stage as a zero-argument call on the first chunk of ``particles``, for

@@ -427,6 +427,7 @@ class Tracker:
 
     def track_frame(self, state: TrackState, frame: int, seen: Seen) -> tuple[TrackState, FrameRecord]:
         """One frame: place, initialise or step (select, predict, measure), estimate, check."""
+        self.scorer.new_frame()
         time_s = frame / self.fps
         info = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": [
             self.dataset.cameras[i].name for i in range(len(seen.masks)) if not seen.obs.active[i]],
