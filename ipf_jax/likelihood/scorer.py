@@ -345,7 +345,7 @@ class Scorer:
         # per camera (a camera nearer the person needs bigger windows); buckets from ladders
         # (_bucket) that only grow here and shrink in new_frame
         need = np.stack([win_r, win_w, grid_r, grid_w], 1).astype(np.int64)
-        self._need = need if self._need is None or len(self._need) != n_cam else np.maximum(self._need, need)
+        self._need = need if self._need is None else np.maximum(self._need, need)
         self.sizes = self._buckets(need, shrink=False)
         n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*self.sizes))
         row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
@@ -361,7 +361,7 @@ class Scorer:
         and words, from fixed ladders (:func:`_bucket`)."""
         sizes = []
         for c, (win_r, win_w, grid_r, grid_w) in enumerate(need.tolist()):
-            old = self.sizes[c] if len(self.sizes) == len(need) else Sizes(0, 0, 0, 0)
+            old = self.sizes[c] if self.sizes else Sizes(0, 0, 0, 0)
             n_win = _bucket(old.win_rows, win_r, 8, self.h_pad, shrink)
             n_win_words = _bucket(old.win_words, win_w, 1, self.w_words, shrink)
             n_rows = max(n_win, _bucket(old.rows, grid_r, 16, self.h_pad, shrink))
@@ -378,8 +378,7 @@ class Scorer:
         if self._need is not None:
             self._recent.append(self._need)
         self._need = None
-        if (len(self._recent) == self._recent.maxlen and len(self.sizes) == len(self._recent[-1])
-                and all(len(n) == len(self.sizes) for n in self._recent)):
+        if len(self._recent) == self._recent.maxlen:  # then plan has set the sizes
             self.sizes = self._buckets(np.max(np.stack(self._recent), axis=0), shrink=True)
 
     def stages(self, particles: np.ndarray, obs: Observation) -> dict:
