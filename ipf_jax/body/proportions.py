@@ -62,7 +62,7 @@ GROUPS: tuple[Group, ...] = (
     Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down", "foot_r0", "foot_r1")),
     Group("trunk", "length", ("hip_down", "trunk", "pelvis_up", "trunk_low", "trunk_top_gap",
                               "shoulder_drop")),
-    Group("head", "length", ("neck", "head_forward", "head_low", "head_high", "head_r", "neck_r")),
+    Group("head", "length", ("neck", "head_forward", "head_low", "head_high")),
     Group("upper_arm", "length", ("upper_arm",)),
     Group("forearm", "length", ("forearm", "hand")),
     Group("pelvis", "breadth", ("hip_half_width", "pelvis_r")),  # via the hip rule (module doc)
@@ -72,6 +72,9 @@ GROUPS: tuple[Group, ...] = (
     Group("leg_girth", "girth", ("thigh_r0", "thigh_r1", "shank_r0", "shank_r1")),
     Group("arm_girth", "girth", ("upper_arm_r0", "upper_arm_r1", "forearm_r0", "forearm_r1",
                                  "hand_r0", "hand_r1")),
+    # the head's and neck's radii apart from its lengths: a narrower or shorter-chinned head than
+    # the template's must not lower the head's top (which would lift the whole body)
+    Group("head_girth", "girth", ("head_r", "neck_r")),
 )
 GROUP_NAMES = tuple(g.name for g in GROUPS)
 NUM_GROUPS = len(GROUPS)
