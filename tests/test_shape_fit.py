@@ -67,6 +67,23 @@ def test_a_wider_pelvis_moves_the_hips_apart_by_harrington():
     assert d_hw == pytest.approx(2 * P.HARRINGTON_SLOPE * dB, rel=1e-6)  # 0.66 of the breadth change
 
 
+def test_the_heads_girth_is_apart_from_its_lengths():
+    # a narrower head (and neck) changes only their radii; a longer head only its lengths (and the
+    # hip joints, which the Harrington rule places from the pelvis breadth and the stature)
+    t = default_shape()
+    hips = {SHAPE_INDEX["hip_half_width"], SHAPE_INDEX["pelvis_r"]}
+    radii = [SHAPE_INDEX[n] for n in ("head_r", "neck_r")]
+    lengths = [SHAPE_INDEX[n] for n in ("neck", "head_forward", "head_low", "head_high")]
+    for group, changed in (("head_girth", radii), ("head", lengths)):
+        theta = np.zeros(P.NUM_GROUPS)
+        theta[P.GROUP_NAMES.index(group)] = np.log(0.9)
+        v = P.build(t.values, theta)
+        moved = set(np.flatnonzero(~np.isclose(v, t.values, rtol=1e-9, atol=0))) - hips
+        assert sorted(moved) == sorted(changed), group
+        assert np.allclose(v[changed], 0.9 * t.values[changed])
+    assert P.GROUPS[P.GROUP_NAMES.index("head_girth")].kind == "girth"
+
+
 def test_out_of_bounds_values_are_refused():
     v = default_shape().values.copy()
     v[SHAPE_INDEX["thigh"]] *= 1.4

@@ -1,12 +1,15 @@
 """A subject's proportions: the segment groups a shape fit moves, their anthropometric bounds, the
 anatomical rule that places the hip joint centres inside the pelvis, and standing height.
 
-The 44 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 13 left/right
+The 44 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 14 left/right
 symmetric **groups** (:data:`GROUPS`): 8 lengths (thigh, shank, foot, trunk, neck and head, upper
-arm, forearm and hand), the sole-to-ankle height, 2 breadths (pelvis, shoulders) and 3 girths
-(torso, legs, arms). Every
+arm, forearm and hand), the sole-to-ankle height, 2 breadths (pelvis, shoulders) and 4 girths
+(torso, legs, arms, head and neck). Every
 parameter of a group is multiplied by the group's factor, so a group keeps the template's internal
-proportions (a longer foot is also a higher one).
+proportions (a longer foot is also a higher one). The head's radii are a girth of their own: when
+they moved with the head's lengths, a fit that narrowed the head (the template's head reaches
+lower than the renders' and is rounder) also lowered its top, and the tracker then lifted the whole
+body by 2-3 cm to fill the head (docs/shape_fit.md).
 
 **Hip joint centres follow anatomy.** Silhouettes see the pelvis surface, not the joints in it:
 the hip-region breadth ``B = hip_half_width + pelvis_r`` (half the pelvis capsule's breadth) is
