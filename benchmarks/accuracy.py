@@ -45,6 +45,7 @@ from ipf_jax.analysis.evaluation.metrics import (
 )
 from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv, write_rows
 from ipf_jax.paths import shared_data_dir
+from ipf_jax.profiling import machine
 
 WALKS = ("rajagopal_walk", "rajagopal_longlegs", "rajagopal_heavy", "rajagopal_walk_uu", "sub4_walk")
 STS = ("sub4_sts", "sub4_sts_weaklegs")
@@ -173,8 +174,8 @@ def seeds_markdown(table: list[dict]) -> str:
 
 
 def environment() -> dict:
-    """What produced the numbers: library versions, Python, the processor."""
-    import platform
+    """What produced the numbers: the host (:func:`ipf_jax.profiling.machine`) and the library
+    versions."""
     from importlib import metadata
 
     def version(dist):
@@ -183,11 +184,8 @@ def environment() -> dict:
         except metadata.PackageNotFoundError:
             return None
 
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").is_file() \
-        else platform.processor()
-    return {"python": platform.python_version(), "cpu": cpu, "cores": os.cpu_count(),
-            **{d: version(d) for d in ("ipf-jax", "jax", "jaxlib", "numpy", "scipy", "opencv-python-headless")}}
+    return {**machine(), **{d: version(d) for d in ("ipf-jax", "jax", "jaxlib", "numpy", "scipy",
+                                                     "opencv-python-headless")}}
 
 
 def main(argv=None) -> int:

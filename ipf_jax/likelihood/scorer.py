@@ -35,6 +35,7 @@ chunks so memory stays bounded, and a chunk is sharded over all local devices.
 from __future__ import annotations
 
 import collections
+import functools
 import itertools
 from typing import NamedTuple
 
@@ -228,13 +229,14 @@ def pick_chunk(calls, limit: int = DEFAULT_CHUNK, *, step: int = 8, lowest: int 
     return int(best) if chunk_cost(calls, best) <= (1.0 - gain) * base else int(limit)
 
 
-def _ladder(step: int, cap: int) -> list[int]:
+@functools.lru_cache(maxsize=None)
+def _ladder(step: int, cap: int) -> tuple[int, ...]:
     """The bucket sizes one static size may take: multiples of ``step`` growing by >= 25 % a rung,
     ending at ``cap`` (a fixed set, so shrinking and growing again reuse compiled programs)."""
     rungs = [min(step, cap)]
     while rungs[-1] < cap:
         rungs.append(_round_up(max(rungs[-1] + step, rungs[-1] + rungs[-1] // 4), step, cap))
-    return rungs
+    return tuple(rungs)
 
 
 def _bucket(old: int, need: int, step: int, cap: int, shrink: bool = False) -> int:
