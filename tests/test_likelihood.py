@@ -59,6 +59,27 @@ def test_chunking_and_roi_do_not_change_counts(scene):
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(b, c)
     np.testing.assert_array_equal(b, d)
+    small = Scorer(cams, SHAPE, U, chunk=32, small_chunks=(4, 8))  # 40 = 32 + a call of 8
+    assert [small.block_size(n) for n in (40, 8, 5, 3)] == [32, 8, 8, 4]
+    np.testing.assert_array_equal(small.counts(particles, obs), b)
+    np.testing.assert_array_equal(small.counts(particles[:3], obs), b[:3])
+
+
+def test_reset_windows_sizes_them_to_the_next_call(scene):
+    """After a wide search the tracker forgets its window sizes: the next call's own need sets
+    them (smaller than the wide cloud's), and the counts are those of the whole image."""
+    cams, q, masks, particles = scene
+    obs = make_observation(list(masks[0]))
+    scorer = Scorer(cams, SHAPE, U, chunk=16)
+    wide = particles + np.random.default_rng(0).normal(0, 0.3, size=particles.shape)
+    scorer.counts(wide, obs)
+    big = scorer.sizes
+    scorer.reset_windows()
+    got = scorer.counts(particles[:4], obs)
+    assert all(s.win_rows <= b.win_rows and s.rows <= b.rows for s, b in zip(scorer.sizes, big))
+    assert scorer.sizes != big
+    np.testing.assert_array_equal(got, Scorer(cams, SHAPE, U, chunk=16).counts(
+        particles[:4], obs, full_roi=True))
 
 
 def test_weight_rules():

@@ -68,6 +68,14 @@ DEFAULT_CHUNK = 512
 #: chunks of 128 / 216 / 256 particles took 0.79 / 0.66 / 0.72 of the time chunks of 512 took; the
 #: cost model of :func:`pick_chunk` gives 0.80 / 0.66 / 0.75.
 CALL_OVERHEAD = 32
+#: Smaller compiled calls for a call's last particles, for scorers whose window sizes are fixed
+#: (the shape fit's, once its windows hold the largest body: :meth:`Scorer.set_small_chunks`): its
+#: compass steps score 4-127
+#: particles at a time, and padded to a 216- or 512-particle chunk each such call cost 6-14 ms
+#: with 4 cameras instead of 1.4. Counts never depend on the chunking, but each size is one more
+#: program per window size, so a scorer whose sizes follow the frames (the tracker's) does not
+#: use them (measured: docs/benchmarks.md).
+SMALL_CHUNKS = (32, 128)
 #: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
 #: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
 SHRINK_FRAMES = 8
@@ -255,11 +263,13 @@ class Scorer:
     cameras : cameras at scoring resolution (C of them).  shape : BodyShape.
     up : (3, 3) canonical-to-world rotation.  kernel : "scanline" or "dense".
     chunk : particles per compiled call (static; rounded up to a multiple of the device count).
+    small_chunks : smaller calls for a call's last particles (:data:`SMALL_CHUNKS`; default none).
     devices : devices to shard each chunk's particle axis over (default: all local devices).
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
-                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None):
+                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None,
+                 small_chunks: tuple[int, ...] = ()):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
         self.cameras = list(cameras)
@@ -275,6 +285,8 @@ class Scorer:
         self.w_words = int(-(-self.widths.max() // WORD))
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
+        self._devices = len(devices)
+        self.set_small_chunks(small_chunks)
         # one device: plain arrays; several: the particle axis is split across them (GSPMD)
         mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
         self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
@@ -293,14 +305,28 @@ class Scorer:
             return x
         return jax.device_put(x, self._split if split else self._whole)
 
+    def set_small_chunks(self, sizes: tuple[int, ...]) -> None:
+        """Use smaller compiled calls for a call's last particles from now on (:data:`SMALL_CHUNKS`;
+        ``()``: none). Worth it once the window sizes have stopped changing."""
+        d = self._devices
+        self._small = [b for b in sorted({-(-int(b) // d) * d for b in sizes} - {0}) if b < self.chunk]
+
+    def block_size(self, left: int) -> int:
+        """Particles in the compiled call for the next ``left`` particles of a call: the chunk,
+        or for a call's last few the smallest of :data:`SMALL_CHUNKS` that holds them (a
+        compass step's 4 poses are not scored as 512)."""
+        return next((b for b in self._small if left <= b), self.chunk)
+
     def _chunks(self, particles: np.ndarray):
         n = len(particles)
-        b = self.chunk
-        for start in range(0, n, b):
+        start = 0
+        while start < n:
+            b = self.block_size(n - start)
             block = particles[start:start + b]
             if len(block) < b:  # pad with copies of a real particle: extents stay the same
                 block = np.concatenate([block, np.repeat(block[:1], b - len(block), axis=0)])
             yield start, block.astype(np.float32)
+            start += b
 
     # -- stage 1 and the window plan -------------------------------------------------------------
     def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None):
@@ -370,6 +396,12 @@ class Scorer:
             n_words = max(n_win_words, _bucket(old.words, grid_w, 2, self.w_words, shrink))
             sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
         return sizes
+
+    def reset_windows(self) -> None:
+        """Forget the window sizes: the next :meth:`plan` sizes them to its own need (after a
+        wide search, e.g. the initialisation, whose spread the tracked frames do not have)."""
+        self.sizes, self._need = [], None
+        self._recent.clear()
 
     def new_frame(self) -> None:
         """A new frame starts: the window buckets shrink to the largest need of the last
@@ -451,7 +483,7 @@ class Scorer:
             pending.append((start, per_cam))
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
         for start, per_cam in pending:  # everything is dispatched before the first result is read
-            take = min(self.chunk, len(particles) - start)
+            take = min(self.block_size(len(particles) - start), len(particles) - start)
             out[start:start + take] = np.stack([np.asarray(r) for r in per_cam], 1)[:take]
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]

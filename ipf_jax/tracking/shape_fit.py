@@ -65,7 +65,7 @@ from ..body.shape import BodyShape
 from ..errors import IPFError, require
 from ..filters.selection import top_distinct
 from ..geometry.kinematics import forward_kinematics
-from ..likelihood.scorer import Observation, Scorer, weights_from_counts
+from ..likelihood.scorer import SMALL_CHUNKS, Observation, Scorer, weights_from_counts
 from .initialise import InitSettings, initialise, pattern_search
 
 
@@ -405,6 +405,9 @@ def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights:
         evaluations += res.evaluations
         fits.append(FramePoses(f, fn, res.particles, res.weights))
     init_seconds = time.perf_counter() - t0
+    # the fit first grows the windows to the largest body (then they stay): its compass steps'
+    # 4-127 poses get small compiled calls from here on
+    scorer.set_small_chunks(SMALL_CHUNKS)
     result = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
     first = result.frames[0]
     doc = dict(result.doc, passes=1, frame_init_evaluations=int(evaluations),
@@ -431,6 +434,7 @@ def refit_from_track(scene: Scene, tracked: dict[int, np.ndarray], shape: BodySh
         q = scene.limits.clip(np.asarray(tracked[f], np.float64)[None])
         w = fn(q, np.broadcast_to(np.asarray(shape.values, np.float32), (1, len(shape.values))))
         fits.append(FramePoses(f, fn, q, w))
+    scorer.set_small_chunks(SMALL_CHUNKS)  # as in calibrate_at_start
     res = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
     return res._replace(doc=dict(res.doc, passes=2, evaluations=res.evaluations))
 

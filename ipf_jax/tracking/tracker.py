@@ -306,6 +306,7 @@ class Tracker:
         doc = None
         if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
             q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
+        self.scorer.reset_windows()  # the search's spread is not the tracked frames'
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
                               init_evaluations=state.init_evaluations + n, shape_fit=doc)
 
