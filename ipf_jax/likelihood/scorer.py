@@ -25,12 +25,15 @@ because fused into one program XLA recomputes the row intervals once per word:
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
 capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, and a
-union grid per camera holding all windows. Their sizes are static and rounded up to buckets that
-only grow (a run compiles a handful of shapes, none per frame); their offsets are data. Only the
+union grid per camera holding all windows. Their sizes are static, from fixed ladders of buckets
+that grow within a frame, shrink after :data:`SHRINK_FRAMES` frames of smaller needs
+(:meth:`Scorer.new_frame`) and are forgotten after a wide search (:meth:`Scorer.reset_windows`), so
+a run compiles a handful of shapes; their offsets are data. Only the
 model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
 (possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
 extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
-chunks so memory stays bounded, and a chunk is sharded over all local devices.
+chunks so memory stays bounded (a call's last few in a smaller one when :data:`SMALL_CHUNKS` are
+on), and a chunk is sharded over all local devices.
 """
 from __future__ import annotations
 
