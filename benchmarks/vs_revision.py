@@ -94,6 +94,10 @@ def main(argv=None) -> int:
                        check=True, capture_output=True)
     else:
         args.rev = str(other)
+        if not (other / "ipf_jax" / "__init__.py").is_file():
+            # PYTHONPATH to a folder without the package would silently run the installed one,
+            # i.e. this tree against itself
+            sys.exit(f"error: {other} holds no ipf_jax package (give a checkout of the repository)")
     try:
         own = Path(args.data).resolve() if args.data else None
         data = own or make_dataset(tmp / "data", args.cameras, args.frames)
