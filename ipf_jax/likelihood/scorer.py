@@ -72,12 +72,11 @@ DEFAULT_CHUNK = 512
 #: cost model of :func:`pick_chunk` gives 0.80 / 0.66 / 0.75.
 CALL_OVERHEAD = 32
 #: Smaller compiled calls for a call's last particles, for scorers whose window sizes are fixed
-#: (the shape fit's, once its windows hold the largest body: :meth:`Scorer.set_small_chunks`): its
-#: compass steps score 4-127
-#: particles at a time, and padded to a 216- or 512-particle chunk each such call cost 6-14 ms
-#: with 4 cameras instead of 1.4. Counts never depend on the chunking, but each size is one more
-#: program per window size, so a scorer whose sizes follow the frames (the tracker's) does not
-#: use them (measured: docs/benchmarks.md).
+#: (the shape fit's, once its windows hold the largest body: :meth:`Scorer.set_small_chunks`).
+#: Its compass steps score 4-127 particles at a time; padded to a 216- or 512-particle chunk, such
+#: a call cost 6-14 ms with 4 cameras instead of 1.4. Counts never depend on the chunking, but
+#: each size is one more program per window size, so a scorer whose sizes follow the frames (the
+#: tracker's) does not use them (measured: docs/benchmarks.md).
 SMALL_CHUNKS = (32, 128)
 #: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
 #: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
