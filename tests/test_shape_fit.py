@@ -84,6 +84,24 @@ def test_the_heads_girth_is_apart_from_its_lengths():
     assert P.GROUPS[P.GROUP_NAMES.index("head_girth")].kind == "girth"
 
 
+def test_the_foots_girth_is_apart_from_the_ankle_height():
+    # a shoe's size moves only the foot's radii; the sole-to-ankle height only the foot's
+    # vertical offsets; shapes written when the radii moved with the ankle (up to 1.8x) still load
+    t = default_shape()
+    hips = {SHAPE_INDEX["hip_half_width"], SHAPE_INDEX["pelvis_r"]}  # the hip rule follows the stature
+    radii = [SHAPE_INDEX[n] for n in ("foot_r0", "foot_r1")]
+    offsets = [SHAPE_INDEX[n] for n in ("heel_down", "toe_down", "foot_down", "foot_tip_down")]
+    for group, changed in (("foot_girth", radii), ("ankle", offsets)):
+        theta = np.zeros(P.NUM_GROUPS)
+        theta[P.GROUP_NAMES.index(group)] = np.log(1.2)
+        v = P.build(t.values, theta)
+        moved = set(np.flatnonzero(~np.isclose(v, t.values, rtol=1e-9, atol=0))) - hips
+        assert sorted(moved) == sorted(changed), group
+    old = t.values.copy()
+    old[radii + offsets] *= 1.8  # the old ankle group's largest factor
+    P.check_bounds(old)
+
+
 def test_out_of_bounds_values_are_refused():
     v = default_shape().values.copy()
     v[SHAPE_INDEX["thigh"]] *= 1.4

@@ -1,15 +1,18 @@
 """A subject's proportions: the segment groups a shape fit moves, their anthropometric bounds, the
 anatomical rule that places the hip joint centres inside the pelvis, and standing height.
 
-The 44 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 14 left/right
+The 44 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 15 left/right
 symmetric **groups** (:data:`GROUPS`): 8 lengths (thigh, shank, foot, trunk, neck and head, upper
-arm, forearm and hand), the sole-to-ankle height, 2 breadths (pelvis, shoulders) and 4 girths
-(torso, legs, arms, head and neck). Every
+arm, forearm and hand), the sole-to-ankle height, 2 breadths (pelvis, shoulders), 4 girths
+(torso, legs, arms, head and neck) and the shoe's girth (the foot's radii). Every
 parameter of a group is multiplied by the group's factor, so a group keeps the template's internal
 proportions (a longer foot is also a higher one). The head's radii are a girth of their own: when
 they moved with the head's lengths, a fit that narrowed the head (the template's head reaches
 lower than the renders' and is rounder) also lowered its top, and the tracker then lifted the whole
-body by 2-3 cm to fill the head (docs/shape_fit.md).
+body by 2-3 cm to fill the head (docs/shape_fit.md). The foot's radii are apart from the
+sole-to-ankle height for the same reason: a shoe is wider and taller than the bare template foot
+by more than a limb's girth varies (-15..+100 %), and moving them with the ankle's vertical offsets
+tied the foot's size to the ankle's height.
 
 **Hip joint centres follow anatomy.** Silhouettes see the pelvis surface, not the joints in it:
 the hip-region breadth ``B = hip_half_width + pelvis_r`` (half the pelvis capsule's breadth) is
@@ -53,7 +56,7 @@ from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
 
 class Group(NamedTuple):
     name: str
-    kind: str  # "length", "breadth" or "girth"
+    kind: str  # "length", "breadth", "girth", "ankle" or "shoe" (a key of BOUNDS)
     params: tuple[str, ...]
 
 
@@ -62,7 +65,7 @@ GROUPS: tuple[Group, ...] = (
     Group("shank", "length", ("shank",)),
     Group("foot", "length", ("heel_back", "toe_forward", "foot_back", "foot_tip")),
     # sole-to-ankle height: the foot's vertical offsets and its capsule radii (shoes raise it)
-    Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down", "foot_r0", "foot_r1")),
+    Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down")),
     Group("trunk", "length", ("hip_down", "trunk", "pelvis_up", "trunk_low", "trunk_top_gap",
                               "shoulder_drop")),
     Group("head", "length", ("neck", "head_forward", "head_low", "head_high")),
@@ -78,6 +81,9 @@ GROUPS: tuple[Group, ...] = (
     # the head's and neck's radii apart from its lengths: a narrower or shorter-chinned head than
     # the template's must not lower the head's top (which would lift the whole body)
     Group("head_girth", "girth", ("head_r", "neck_r")),
+    # the foot's radii apart from the sole-to-ankle height: a shoe is wider and taller than the
+    # template's bare foot, by more than a limb's girth varies
+    Group("foot_girth", "shoe", ("foot_r0", "foot_r1")),
 )
 GROUP_NAMES = tuple(g.name for g in GROUPS)
 NUM_GROUPS = len(GROUPS)
@@ -86,11 +92,11 @@ assert sorted(p for g in GROUPS for p in g.params) == sorted(SHAPE_PARAM_NAMES),
 #: Allowed ratio to standing height, as (lower, upper) fractions of the template's ratio (module
 #: doc); the template's ankle is a barefoot one (0.039 H), and shoes add 1-5 cm of sole and heel.
 BOUNDS = {"length": (0.15, 0.15), "breadth": (0.20, 0.20), "girth": (0.30, 0.30),
-          "ankle": (0.15, 0.80)}
+          "ankle": (0.15, 1.50), "shoe": (0.15, 1.00)}
 #: Where a shape fit starts and what its weak prior pulls towards, as each group's factor over
 #: the template's ratio: the template's ankle is barefoot; everyday shoes add about 2.5 cm of
 #: heel and sole (68 -> 92 mm at 1.75 m). Other groups: the template (1).
-PRIOR_FACTORS = {"ankle": 1.35}
+PRIOR_FACTORS = {"ankle": 1.70}
 HIP_SPACING_BOUND = 0.30  # hip_half_width follows the pelvis breadth at 0.66 of its change
 
 # Harrington et al. 2007: hip-centre half-spacing = 0.33 PW + 7.3 mm (PW = inter-ASIS width)

@@ -2,8 +2,8 @@
 
 One template scaled by height cannot fit a person whose legs are long for the torso, and the
 feet-on-the-floor placement then puts every hip too high or too low. This module fits the
-subject's proportions (the 14 symmetric groups of :mod:`ipf_jax.body.proportions`: 8 lengths,
-the ankle height, 2 breadths, 4 girths, inside anthropometric bounds, hip joint centres placed by the Harrington
+subject's proportions (the 15 symmetric groups of :mod:`ipf_jax.body.proportions`: 8 lengths,
+the ankle height, 2 breadths, 4 girths and the shoe's, inside anthropometric bounds, hip joint centres placed by the Harrington
 rule) jointly with the poses of ``K`` frames spread over the recording, on the exact silhouette
 likelihood, without derivatives:
 
