@@ -67,19 +67,28 @@ def test_a_wider_pelvis_moves_the_hips_apart_by_harrington():
     assert d_hw == pytest.approx(2 * P.HARRINGTON_SLOPE * dB, rel=1e-6)  # 0.66 of the breadth change
 
 
-def test_the_heads_girth_is_apart_from_its_lengths():
-    # a narrower head (and neck) changes only their radii; a longer head only its lengths (and the
-    # hip joints, which the Harrington rule places from the pelvis breadth and the stature)
+def _moved_by(group: str, factor: float):
+    """(parameters a group's factor moves, the new values): the hip joints, which the Harrington
+    rule places from the pelvis breadth and the stature, left out."""
     t = default_shape()
     hips = {SHAPE_INDEX["hip_half_width"], SHAPE_INDEX["pelvis_r"]}
-    radii = [SHAPE_INDEX[n] for n in ("head_r", "neck_r")]
-    lengths = [SHAPE_INDEX[n] for n in ("neck", "head_forward", "head_low", "head_high")]
-    for group, changed in (("head_girth", radii), ("head", lengths)):
-        theta = np.zeros(P.NUM_GROUPS)
-        theta[P.GROUP_NAMES.index(group)] = np.log(0.9)
-        v = P.build(t.values, theta)
-        moved = set(np.flatnonzero(~np.isclose(v, t.values, rtol=1e-9, atol=0))) - hips
-        assert sorted(moved) == sorted(changed), group
+    theta = np.zeros(P.NUM_GROUPS)
+    theta[P.GROUP_NAMES.index(group)] = np.log(factor)
+    v = P.build(t.values, theta)
+    return sorted(set(np.flatnonzero(~np.isclose(v, t.values, rtol=1e-9, atol=0))) - hips), v
+
+
+def _index(*names):
+    return sorted(SHAPE_INDEX[n] for n in names)
+
+
+def test_the_heads_girth_is_apart_from_its_lengths():
+    # a narrower head (and neck) changes only their radii; a longer head only its lengths
+    t = default_shape()
+    for group, changed in (("head_girth", _index("head_r", "neck_r")),
+                           ("head", _index("neck", "head_forward", "head_low", "head_high"))):
+        moved, v = _moved_by(group, 0.9)
+        assert moved == changed, group
         assert np.allclose(v[changed], 0.9 * t.values[changed])
     assert P.GROUPS[P.GROUP_NAMES.index("head_girth")].kind == "girth"
 
@@ -87,17 +96,11 @@ def test_the_heads_girth_is_apart_from_its_lengths():
 def test_the_foots_girth_is_apart_from_the_ankle_height():
     # a shoe's size moves only the foot's radii; the sole-to-ankle height only the foot's
     # vertical offsets; shapes written when the radii moved with the ankle (up to 1.8x) still load
-    t = default_shape()
-    hips = {SHAPE_INDEX["hip_half_width"], SHAPE_INDEX["pelvis_r"]}  # the hip rule follows the stature
-    radii = [SHAPE_INDEX[n] for n in ("foot_r0", "foot_r1")]
-    offsets = [SHAPE_INDEX[n] for n in ("heel_down", "toe_down", "foot_down", "foot_tip_down")]
-    for group, changed in (("foot_girth", radii), ("ankle", offsets)):
-        theta = np.zeros(P.NUM_GROUPS)
-        theta[P.GROUP_NAMES.index(group)] = np.log(1.2)
-        v = P.build(t.values, theta)
-        moved = set(np.flatnonzero(~np.isclose(v, t.values, rtol=1e-9, atol=0))) - hips
-        assert sorted(moved) == sorted(changed), group
-    old = t.values.copy()
+    radii = _index("foot_r0", "foot_r1")
+    offsets = _index("heel_down", "toe_down", "foot_down", "foot_tip_down")
+    assert _moved_by("foot_girth", 1.2)[0] == radii
+    assert _moved_by("ankle", 1.2)[0] == offsets
+    old = default_shape().values.copy()
     old[radii + offsets] *= 1.8  # the old ankle group's largest factor
     P.check_bounds(old)
 
