@@ -59,7 +59,8 @@ def test_chunking_and_roi_do_not_change_counts(scene):
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(b, c)
     np.testing.assert_array_equal(b, d)
-    small = Scorer(cams, SHAPE, U, chunk=32, small_chunks=(4, 8))  # 40 = 32 + a call of 8
+    small = Scorer(cams, SHAPE, U, chunk=32)
+    small.set_small_chunks((4, 8))  # 40 = 32 + a call of 8
     assert [small.block_size(n) for n in (40, 8, 5, 3)] == [32, 8, 8, 4]
     np.testing.assert_array_equal(small.counts(particles, obs), b)
     np.testing.assert_array_equal(small.counts(particles[:3], obs), b[:3])

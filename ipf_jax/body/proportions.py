@@ -64,7 +64,7 @@ GROUPS: tuple[Group, ...] = (
     Group("thigh", "length", ("thigh",)),
     Group("shank", "length", ("shank",)),
     Group("foot", "length", ("heel_back", "toe_forward", "foot_back", "foot_tip")),
-    # sole-to-ankle height: the foot's vertical offsets and its capsule radii (shoes raise it)
+    # sole-to-ankle height: the foot's vertical offsets (shoes raise it; their size: foot_girth)
     Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down")),
     Group("trunk", "length", ("hip_down", "trunk", "pelvis_up", "trunk_low", "trunk_top_gap",
                               "shoulder_drop")),

@@ -265,13 +265,11 @@ class Scorer:
     cameras : cameras at scoring resolution (C of them).  shape : BodyShape.
     up : (3, 3) canonical-to-world rotation.  kernel : "scanline" or "dense".
     chunk : particles per compiled call (static; rounded up to a multiple of the device count).
-    small_chunks : smaller calls for a call's last particles (:data:`SMALL_CHUNKS`; default none).
     devices : devices to shard each chunk's particle axis over (default: all local devices).
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
-                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None,
-                 small_chunks: tuple[int, ...] = ()):
+                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
         self.cameras = list(cameras)
@@ -288,7 +286,7 @@ class Scorer:
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
         self._devices = len(devices)
-        self.set_small_chunks(small_chunks)
+        self._small: list[int] = []  # :meth:`set_small_chunks`
         # one device: plain arrays; several: the particle axis is split across them (GSPMD)
         mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
         self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
@@ -485,7 +483,7 @@ class Scorer:
             pending.append((start, per_cam))
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
         for start, per_cam in pending:  # everything is dispatched before the first result is read
-            take = min(self.block_size(len(particles) - start), len(particles) - start)
+            take = min(self.chunk, len(particles) - start)  # a small last block holds them all
             out[start:start + take] = np.stack([np.asarray(r) for r in per_cam], 1)[:take]
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
