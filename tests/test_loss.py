@@ -67,8 +67,11 @@ def scene():
     return cams, q, masks
 
 
-def test_a_lost_track_is_written_as_missing_with_its_best_guess(scene, tmp_path):
+def test_a_lost_track_is_written_as_missing_with_its_best_guess(scene, tmp_path, monkeypatch):
     cams, q, masks = scene
+    resets = []  # the window sizes are forgotten after each search: the start and the recovery
+    reset = Scorer.reset_windows
+    monkeypatch.setattr(Scorer, "reset_windows", lambda self: (resets.append(self.evaluations), reset(self)))
     res = track(MemoryDataset(cams, masks, fps=20.0), tmp_path, SETTINGS, progress=False)
     run = json.loads((tmp_path / "run.json").read_text())
     statuses = [r["status"] for r in run["per_frame"]]
@@ -90,6 +93,7 @@ def test_a_lost_track_is_written_as_missing_with_its_best_guess(scene, tmp_path)
     assert attempt["stage"] in ("local", "global")  # the local one failed: the global one ran too
     assert run["per_frame"][7]["recovery"]["evaluations"] == attempt["evaluations"]
     assert run["init_evaluations"] > rec["evaluations"]  # the recovery is counted in it too
+    assert len(resets) == 2 and resets[1] - resets[0] > rec["evaluations"]  # after the recovery
     # gait analysis reads them as gaps and says so
     notes = read_joints_csv(tmp_path / "joints.csv").notes
     assert any("2 frames the tracker declared lost (run.json: frames 7-8)" in n for n in notes)

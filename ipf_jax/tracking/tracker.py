@@ -390,6 +390,7 @@ class Tracker:
         except IPFError as e:  # a recovery attempt that cannot run keeps the track
             w, n = None, 0
             info["reinit_error"] = e.message
+        self.scorer.reset_windows()  # the search's spread is not the tracked frames'
         status = "reinit-rejected"
         if w is not None and np.nanmax(w) > w_best:
             state = state._replace(filter=self.filter_for(state.shape).init(q, w))
@@ -414,6 +415,7 @@ class Tracker:
         except IPFError as e:  # a recovery attempt that cannot run keeps the track
             res = None
             info["reinit_error"] = e.message
+        self.scorer.reset_windows()  # the search's spread is not the tracked frames'
         accepted = res is not None and float(np.nanmax(res.weights)) > w_best
         n = 0 if res is None else res.evaluations
         if accepted:
