@@ -13,8 +13,10 @@ likelihood, without derivatives:
                with the current shape
         shape: CMA-ES over theta (group log-factors), G generations of lambda candidates;
                a candidate's score is the mean over the K frames of the best of the frame's
-               kept poses, each moved along the up axis so that its lowest point touches the
-               floor with that candidate's body (longer legs lift the pelvis)
+               kept poses, each carried over to that candidate's body: moved along the up axis
+               so that its lowest point touches the floor (longer legs lift the pelvis), its limb
+               angles moved so that the knees, feet, elbows and wrists stay where the current
+               body had them (ipf_jax.geometry.retarget), on the floor again
     final compass search of every frame's poses with the best shape
 
 Different poses separate the lengths (a bent knee splits thigh and shank, a swinging arm
@@ -65,6 +67,7 @@ from ..body.shape import BodyShape
 from ..errors import IPFError, require
 from ..filters.selection import top_distinct
 from ..geometry.kinematics import forward_kinematics
+from ..geometry.retarget import limb_points, retarget
 from ..likelihood.scorer import SMALL_CHUNKS, Observation, Scorer, weights_from_counts
 from .initialise import InitSettings, initialise, pattern_search
 
@@ -82,6 +85,10 @@ class ShapeFitSettings(NamedTuple):
     search's noise).  split_prior : the same for the split of a limb between its two segments
     (thigh / shank, upper arm / forearm), which silhouettes barely see: the limb's length is
     fitted, its split kept near the template's unless the poses show otherwise.
+    retarget_iterations : Gauss-Newton steps that carry a frame's kept poses over to a candidate
+    body with its limb joints kept in place (:mod:`ipf_jax.geometry.retarget`); 0 keeps the
+    joint angles, as the fit did before (a shorter thigh then moved the knee and foot of a
+    swinging leg).
     """
 
     frames: int = 8  # the default of --shape-frames (measured: docs/shape_fit.md)
@@ -94,6 +101,7 @@ class ShapeFitSettings(NamedTuple):
     refit_frames: int = 10
     prior: float = 1e-3
     split_prior: float = 1e-2
+    retarget_iterations: int = 3
 
 
 #: The lighter initialisation of the other K - 1 frames of pass 1 (shape held, so one height).
@@ -246,19 +254,38 @@ class _Objective:
             p = p + self.s.split_prior * ((lf[:, a] - lf[:, b]) / self.half[a]) ** 2
         return abs(self.start) * p
 
-    def score(self, values: np.ndarray, poses: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
-        """(L, P) bodies -> (L,) mean over frames of each body's best pose; the placed poses."""
+    def transfer(self, values: np.ndarray, poses: list[np.ndarray], base: np.ndarray) -> list[np.ndarray]:
+        """Each frame's (M, D) poses, fitted with the body ``base`` (P,), carried over to each of
+        the (L, P) bodies: on the floor, the limb angles moved so that the knees, ankles, feet,
+        elbows and wrists stay where they were (:func:`ipf_jax.geometry.retarget.retarget`;
+        ``retarget_iterations = 0`` keeps the angles). Returns per frame (L * M, D), body-major."""
+        L = len(values)
+        qq = np.concatenate([np.repeat(q[None], L, 0).reshape(L * len(q), NUM_DOF) for q in poses])
+        vv = np.concatenate([np.repeat(values, len(q), 0) for q in poses])
+        placed = place_on_floor_many(qq, vv, self.U)
+        if self.s.retarget_iterations > 0:
+            targets = []
+            for q in poses:
+                b = np.broadcast_to(base, (len(q), len(base)))
+                targets.append(np.tile(limb_points(place_on_floor_many(q, b, self.U), b, self.U), (L, 1, 1)))
+            placed = retarget(placed, vv, np.concatenate(targets), self.U, self.limits.clip,
+                              iterations=self.s.retarget_iterations)
+            placed = place_on_floor_many(placed, vv, self.U)
+        placed = self.limits.clip(placed)
+        return np.split(placed, np.cumsum([L * len(q) for q in poses])[:-1])
+
+    def score(self, values: np.ndarray, poses: list[np.ndarray],
+              base: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """(L, P) bodies -> (L,) mean over frames of each body's best pose (the frames' poses,
+        fitted with ``base``, carried over: :meth:`transfer`); the carried poses."""
         total = np.zeros(len(values))
         placed_all = []
-        for fr, q in zip(self.frames, poses):
-            L, M = len(values), len(q)
-            qq = np.repeat(q[None], L, 0).reshape(L * M, NUM_DOF)
-            vv = np.repeat(values, M, 0)
-            placed = self.limits.clip(place_on_floor_many(qq, vv, self.U))
-            w = fr.measure(placed, vv).reshape(L, M)
-            self.evaluations += L * M
+        L = len(values)
+        for fr, placed in zip(self.frames, self.transfer(values, poses, base)):
+            w = fr.measure(placed, np.repeat(values, len(placed) // L, 0)).reshape(L, -1)
+            self.evaluations += len(placed)
             total += np.where(np.isnan(w), 0.0, w).max(1)
-            placed_all.append(placed.reshape(L, M, NUM_DOF))
+            placed_all.append(placed.reshape(L, -1, NUM_DOF))
         return total / len(self.frames), placed_all
 
     def refine_poses(self, values: np.ndarray, current: list[FramePoses]) -> list[FramePoses]:
@@ -305,17 +332,17 @@ def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, lim
     rng = np.random.default_rng(seed)
     obj = _Objective(frames, reference, U, limits, height_m, settings)
     theta, values, current = obj.starting_point()
-    obj.start = float(obj.score(values[None], [fr.particles for fr in current])[0][0])
+    obj.start = float(obj.score(values[None], [fr.particles for fr in current], values)[0][0])
     history = [round(obj.start, 5)]
     for r in range(s.rounds):
         current = obj.refine_poses(values, current)
         poses = [fr.particles for fr in current]
-        best_score = float(obj.score(values[None], poses)[0][0] - obj.penalty(values)[0])
+        best_score = float(obj.score(values[None], poses, values)[0][0] - obj.penalty(values)[0])
         cma = CMAES(theta, s.sigma * 0.7 ** r, s.population, rng)
         for _ in range(s.generations):
             vals = obj.body(cma.ask())
             cand = log_factors(vals, obj.ref)  # repaired into the bounds (and onto the height)
-            f, placed = obj.score(vals, poses)
+            f, placed = obj.score(vals, poses, values)  # the poses fit `values`
             f = f - obj.penalty(vals)
             cma.tell(cand, -f)
             i = int(np.argmax(f))
@@ -326,7 +353,7 @@ def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, lim
                 poses = [fr.particles for fr in current]
         history.append(round(best_score, 5))
     current = obj.refine_poses(values, current)
-    history.append(round(float(obj.score(values[None], [fr.particles for fr in current])[0][0]), 5))
+    history.append(round(float(obj.score(values[None], [fr.particles for fr in current], values)[0][0]), 5))
     seconds = time.perf_counter() - t0
     doc = {"frames": [int(fr.frame) for fr in frames], "evaluations": int(obj.evaluations),
            "seconds": round(seconds, 3), "height_m_given": height_m,

@@ -1,0 +1,56 @@
+"""Pose transfer between bodies: the limb angles that keep the limbs' joints where they were.
+
+When a shape fit tries another body on a frame's pose, keeping the joint angles moves every joint
+below a changed segment: a thigh 7 cm shorter under a hip 7 cm lower (the feet stay on the floor)
+moves the knee of a leg swung 25 deg by about 3 cm along the walk, and the foot with it. The
+candidate is then scored with a pose that no longer fits its frame, so a body far from the current
+one scores worse than it would with its own poses, and the fit stays near where it started.
+:func:`retarget` instead moves the limb angles (hips, knees, ankles, shoulders, elbows) by a few
+Gauss-Newton steps so that the knees, ankles, heels, toes, elbows and wrists of the new body come
+nearest their places on the old one. The root and trunk stay: the caller places the body on the
+floor before and after. What it changed in the fit is measured in docs/shape_fit.md.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..body.model import DOF_NAMES, POINT_INDEX
+from .kinematics import forward_kinematics
+
+#: The limb angles moved (every DOF of the legs and arms).
+LIMB_DOFS = np.array([i for i, n in enumerate(DOF_NAMES) if n.startswith(("left_", "right_"))])
+#: The joints kept in place (each one below a limb angle).
+KEPT_POINTS = np.array([POINT_INDEX[f"{side}_{p}"] for side in ("left", "right")
+                        for p in ("knee", "ankle", "heel", "toe", "elbow", "wrist")])
+
+
+def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(..., D) poses, (..., P) bodies -> (..., T, 3) world positions of :data:`KEPT_POINTS`."""
+    v = np.moveaxis(np.asarray(values, np.float64), -1, 0)[..., None]
+    pose = forward_kinematics(np.asarray(q, np.float64), v, np.asarray(U, np.float64), xp=np)
+    return pose.points[..., KEPT_POINTS, :]
+
+
+def retarget(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, clip, *,
+             iterations: int = 3, step: float = 1e-3, damping: float = 1e-4) -> np.ndarray:
+    """Limb angles of (N, D) poses ``q`` with (N, P) bodies ``values`` moved so that the kept
+    joints come nearest ``targets`` (N, T, 3) (least squares, Gauss-Newton with a forward-difference
+    Jacobian of ``step`` rad and Levenberg's ``damping``); ``clip`` keeps each pose inside the
+    DOF ranges after every step. Returns (N, D)."""
+    q = np.array(q, np.float64)
+    n, k = q.shape[0], len(LIMB_DOFS)
+    v = np.repeat(np.asarray(values, np.float64)[:, None], k + 1, 1)
+    eye = step * np.eye(k)
+    for _ in range(iterations):
+        qq = np.repeat(q[:, None], k + 1, 1)
+        qq[:, 1:, LIMB_DOFS] += eye
+        p = limb_points(qq, v, U)  # (N, k + 1, T, 3)
+        residual = (p[:, 0] - targets).reshape(n, -1, 1)
+        J = ((p[:, 1:] - p[:, :1]) / step).reshape(n, k, -1)  # (N, k, 3T): J transposed
+        delta = np.linalg.solve(J @ J.transpose(0, 2, 1) + damping * np.eye(k), -(J @ residual))
+        q[:, LIMB_DOFS] += delta[..., 0]
+        q = clip(q)
+    return q
+
+
+__all__ = ["KEPT_POINTS", "LIMB_DOFS", "limb_points", "retarget"]

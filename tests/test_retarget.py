@@ -1,0 +1,53 @@
+"""Pose transfer between bodies (ipf_jax.geometry.retarget): the limb joints stay in place."""
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ipf_jax.body import default_shape, load_limits
+from ipf_jax.body import proportions as P
+from ipf_jax.geometry.posing import gait_pose
+from ipf_jax.geometry.retarget import limb_points, retarget
+from ipf_jax.geometry.world import up_rotation
+from ipf_jax.tracking.shape_fit import place_on_floor_many
+
+U = up_rotation("+z")
+LIMITS = load_limits("default")
+
+
+def _carry(q, old, new, iterations):
+    """Poses fitted with body ``old`` carried to body ``new`` as the shape fit does: on the floor,
+    the limb angles moved (``iterations`` > 0), on the floor again."""
+    n = len(q)
+    o, v = np.broadcast_to(old, (n, len(old))), np.broadcast_to(new, (n, len(new)))
+    targets = limb_points(place_on_floor_many(q, o, U), o, U)
+    placed = place_on_floor_many(q, v, U)
+    if iterations:
+        placed = place_on_floor_many(retarget(placed, v, targets, U, LIMITS.clip, iterations=iterations), v, U)
+    legs = [0, 1, 2, 3, 6, 7, 8, 9]  # knees, ankles, heels, toes (the arms may be out of reach)
+    return np.linalg.norm(limb_points(placed, v, U) - targets, axis=-1)[:, legs].mean(-1), placed
+
+
+def test_the_same_body_keeps_the_pose():
+    q = np.stack([gait_pose(25, 5, -10, 10), gait_pose(-5, 5, 20, 50)])
+    body = default_shape(1.8).values
+    err, placed = _carry(q, body, body, 3)
+    assert np.allclose(placed, place_on_floor_many(q, np.broadcast_to(body, (2, len(body))), U), atol=1e-9)
+    assert np.all(err < 1e-9)
+
+
+@settings(max_examples=12, deadline=None)
+@given(hip=st.floats(-15, 30), knee=st.floats(0, 60), thigh=st.floats(0.87, 1.0),
+       trunk=st.floats(1.0, 1.13))
+def test_a_shorter_thigh_under_a_longer_trunk_keeps_the_knees_and_feet(hip, knee, thigh, trunk):
+    # the heavy render's case (docs/shape_fit.md): the hips come down, the knees and feet stay
+    ref = default_shape(1.85).values
+    theta = np.zeros(P.NUM_GROUPS)
+    for name, f in (("thigh", thigh), ("trunk", trunk)):
+        theta[P.GROUP_NAMES.index(name)] = np.log(f)
+    new = P.build(ref, theta)
+    q = np.stack([gait_pose(hip, knee, -0.5 * hip, 5), gait_pose(-0.5 * hip, 5, hip, knee)])
+    kept, _ = _carry(q, ref, new, 0)
+    moved, placed = _carry(q, ref, new, 3)
+    assert np.all(moved <= kept + 1e-9)
+    assert np.all(moved <= 0.5 * kept + 2e-3), (kept, moved)  # halved, or within 2 mm
+    assert np.all(LIMITS.clip(placed) == placed)
