@@ -2,10 +2,11 @@
 
     python benchmarks/accuracy_compare.py LABEL=DIR [LABEL=DIR ...] [--out FILE.md]
 
-For each result (``DIR/accuracy.json``) and every set they share: MPJPE, the error left once each
-joint's constant offset is removed (offset-free) and the mean offset; then, per joint, the
-offset-free error and the offset averaged over the shared sets. Prints markdown (and writes it to
-``--out``).
+For each result (``DIR/accuracy.json``, or the path of such a file) and every set they share: MPJPE,
+the error left once each joint's constant offset is removed (offset-free), the mean offset and the
+hip/knee/ankle offset; then, per joint, the offset-free error and the offset averaged over the
+shared sets. A result with several seeds per set (``accuracy.py --seeds``) counts each set's mean
+over its seeds. Prints markdown (and writes it to ``--out``).
 """
 from __future__ import annotations
 
@@ -16,15 +17,30 @@ from pathlib import Path
 import numpy as np
 
 
+KEYS = ("mpjpe_mm", "offset_free_mm", "mean_offset_mm", "leg_offset_mm")
+
+
 def load(spec: str) -> tuple[str, dict]:
-    label, _, folder = spec.partition("=")
-    rows = json.loads((Path(folder) / "accuracy.json").read_text())["rows"]
-    return label, {r["set"]: r for r in rows}
+    label, _, where = spec.partition("=")
+    path = Path(where)
+    rows = json.loads((path if path.suffix == ".json" else path / "accuracy.json").read_text())["rows"]
+    by_set: dict[str, list[dict]] = {}
+    for r in rows:
+        by_set.setdefault(r["set"], []).append(r)
+    return label, {s: over_seeds(rs) for s, rs in by_set.items()}
+
+
+def over_seeds(rows: list[dict]) -> dict:
+    """One set's rows (one per seed) -> a row of their means (the figures these tables use)."""
+    joints = rows[0]["per_joint"]
+    return {**{k: float(np.mean([r[k] for r in rows])) for k in KEYS}, "seeds": len(rows),
+            "per_joint": {j: {k: float(np.mean([r["per_joint"][j][k] for r in rows]))
+                              for k in ("offset_free_m", "offset_m")} for j in joints}}
 
 
 def tables(results: list[tuple[str, dict]]) -> str:
     sets = [s for s in results[0][1] if all(s in r for _, r in results)]
-    cols = [(lab, key) for lab, _ in results for key in ("mpjpe_mm", "offset_free_mm", "mean_offset_mm")]
+    cols = [(lab, key) for lab, _ in results for key in KEYS]
     head = "| set | " + " | ".join(f"{lab} {k.replace('_mm', '').replace('_', ' ')}" for lab, k in cols) + " |"
     md = [head, "|---|" + "---|" * len(cols)]
     for s in sets:
