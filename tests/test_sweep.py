@@ -4,6 +4,7 @@ Cells track a tiny self-rendered walk (2 cameras 160x120, the likelihood tests' 
 from a given initial pose, so a cell takes well under a second once compiled.
 """
 import csv
+import gc
 import json
 import os
 import subprocess
@@ -223,10 +224,15 @@ def test_release_compiled_frees_memory_maps_past_the_share():
 
     if jax_setup.map_usage() is None:
         pytest.skip("no /proc memory-map counts here")
+    f = jax.jit(lambda x: jnp.cos(x) * 3 - x.max())
     for n in range(1, 41):
-        jax.jit(lambda x: jnp.cos(x) * 3 - x.max())(jnp.ones(n)).block_until_ready()
+        f(jnp.ones(n)).block_until_ready()
+    gc.collect()  # garbage of earlier tests (large arrays are maps of their own) goes first
     used, limit = jax_setup.map_usage()
-    assert not jax_setup.release_compiled(share=1.0)  # under the limit: nothing cleared
-    assert jax_setup.map_usage()[0] >= used - 5
+    # under the limit nothing is cleared (the process's map count itself may drift by a few
+    # maps as memory is returned: 9 in a full run, so the programs are counted instead)
+    assert not jax_setup.release_compiled(share=1.0)
+    assert f._cache_size() == 40
     assert jax_setup.release_compiled(share=0.0)
+    assert f._cache_size() == 0
     assert jax_setup.map_usage()[0] < used - 40  # 40 programs' mappings are gone
