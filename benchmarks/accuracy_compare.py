@@ -26,12 +26,14 @@ def load(spec: str) -> tuple[str, dict]:
     rows = json.loads((path if path.suffix == ".json" else path / "accuracy.json").read_text())["rows"]
     by_set: dict[str, list[dict]] = {}
     for r in rows:
-        by_set.setdefault(r["set"], []).append(r)
-    return label, {s: over_seeds(rs) for s, rs in by_set.items()}
+        if "error" not in r:  # a set that failed to run has no figures (accuracy.py says why)
+            by_set.setdefault(r["set"], []).append(r)
+    return label, {s: seed_mean(rs) for s, rs in by_set.items()}
 
 
-def over_seeds(rows: list[dict]) -> dict:
-    """One set's rows (one per seed) -> a row of their means (the figures these tables use)."""
+def seed_mean(rows: list[dict]) -> dict:
+    """One set's rows (one per seed) -> a row of their means, per joint too (the figures these
+    tables use; ``accuracy.over_seeds`` gives the spread of the headline columns instead)."""
     joints = rows[0]["per_joint"]
     return {**{k: float(np.mean([r[k] for r in rows])) for k in KEYS}, "seeds": len(rows),
             "per_joint": {j: {k: float(np.mean([r["per_joint"][j][k] for r in rows]))
