@@ -136,6 +136,21 @@ def test_local_recovery_finds_a_posture_from_a_standing_pose(posture):
     assert knee > 60, knee  # a bent-knee posture, not a standing one
 
 
+def test_posture_grid_puts_the_bodys_centroid_over_the_floor_point():
+    """A seated body's root is behind its silhouette's centroid: the posture grid moves each
+    configuration so that its capsules' centroid, not its root, is over the floor point."""
+    from ipf_jax.tracking.initialise import body_centroid, grid_particles
+
+    foot = np.array([0.4, -0.3, 0.0])
+    sit = posture_pose(*POSTURES_DEG["sit"])
+    grid = grid_particles(foot, SHAPE, U, load_limits(), FAST_INIT, configs=[sit], centred=True)
+    assert len(grid) == FAST_INIT.headings
+    for q in grid:
+        np.testing.assert_allclose(body_centroid(q, SHAPE.values, U)[:2], foot[:2], atol=1e-6)
+    roots = grid[:, :2] - foot[:2]
+    assert np.all(np.hypot(*roots.T) > 0.1)  # the root is well behind: the thighs reach forward
+
+
 def test_initialisation_finds_a_seated_person():
     """The first frame shows someone seated: the postures beyond walking seed the search."""
     from ipf_jax.tracking.initialise import initialise
@@ -155,8 +170,11 @@ def test_initialisation_finds_a_seated_person():
     res = initialise(np.array([0, 3], np.uint32), masks, cams, U, limits, SHAPE, measure,
                      fixed_shape=SHAPE, settings=FAST_INIT._replace(posture_modes=1))
     best = res.particles[np.nanargmax(res.weights)]
-    assert np.rad2deg(best[DOF_INDEX["left_knee_flexion"]]) > 60
-    assert np.rad2deg(best[DOF_INDEX["right_hip_flexion"]]) > 60
+    for dof in ("left_hip_flexion", "right_hip_flexion", "left_knee_flexion", "right_knee_flexion"):
+        assert np.rad2deg(best[DOF_INDEX[dof]]) > 60, dof
+    heading_error = np.rad2deg(abs((best[3] - truth[3] + np.pi) % (2 * np.pi) - np.pi))
+    assert heading_error < 30  # facing the right way, not seated backwards
+    assert np.hypot(*(best[:2] - truth[:2])) < 0.1
     walking_only = initialise(np.array([0, 3], np.uint32), masks, cams, U, limits, SHAPE, measure,
                               fixed_shape=SHAPE, settings=FAST_INIT)
     assert np.nanmax(res.weights) > np.nanmax(walking_only.weights)

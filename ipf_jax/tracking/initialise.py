@@ -32,6 +32,7 @@ from ..errors import IPFError
 from ..filters.base import gaussian_noise
 from ..filters.selection import top_distinct
 from ..geometry.camera import Camera
+from ..geometry.host import forward_kinematics
 from ..geometry.placement import floor_point_single
 from ..geometry.posing import LEG_CONFIGS_DEG, POSTURES_DEG, gait_pose, place_on_floor, posture_pose
 from ..geometry.rays import intersect_rays, is_upright, ray_at_height, silhouette_rays
@@ -99,23 +100,41 @@ def floor_points(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
     return out
 
 
+def body_centroid(q: np.ndarray, shape_values: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """(3,) area-weighted centre of the capsules' outlines (a capsule's side view: ``2 r l + pi r^2``
+    with ``r`` its mean radius), which is where a silhouette's centroid ray passes."""
+    pose = forward_kinematics(q, shape_values, U)
+    r = pose.seg_r.mean(axis=1)
+    area = 2 * r * np.linalg.norm(pose.seg_b - pose.seg_a, axis=1) + np.pi * r**2
+    return area @ (0.5 * (pose.seg_a + pose.seg_b)) / area.sum()
+
+
 def grid_particles(foot: np.ndarray, shape: BodyShape, U: np.ndarray, limits: Limits,
-                   settings: InitSettings, configs: list[np.ndarray] | None = None) -> np.ndarray:
+                   settings: InitSettings, configs: list[np.ndarray] | None = None,
+                   centred: bool = False) -> np.ndarray:
     """(G, D) grid configurations standing at positions around ``foot``: ``configs`` (poses at
-    the origin, default: the walking ones of ``LEG_CONFIGS_DEG``) x headings x positions."""
+    the origin, default: the walking ones of ``LEG_CONFIGS_DEG``) x headings x positions.
+
+    ``foot`` is under the silhouettes' centroid. A walking pose's root is over its own centroid;
+    a seated or crouching one's is not (the thighs reach forward), so with ``centred`` each
+    configuration is moved so that its capsules' centroid, not its root, is over ``foot``."""
     k = settings.position_steps
     offsets = settings.position_step_m * np.arange(-k, k + 1)
-    east, north = U[:, 0], U[:, 1]
+    east, north, up = U[:, 0], U[:, 1], U[:, 2]
     out = []
     for config in (configs if configs is not None else [gait_pose(*legs) for legs in LEG_CONFIGS_DEG]):
         base = place_on_floor(config, shape.values, U)  # at the origin, on the floor
         for yaw in np.linspace(-np.pi, np.pi, settings.headings, endpoint=False):
             q = base.copy()
             q[3] = yaw
+            shift = np.zeros(3)
+            if centred:
+                c = body_centroid(q, shape.values, U) - q[:3]
+                shift = c - up * (up @ c)
             for dx in offsets:
                 for dy in offsets:
                     qq = q.copy()
-                    qq[:3] = base[:3] + foot + dx * east + dy * north
+                    qq[:3] = base[:3] + foot - shift + dx * east + dy * north
                     out.append(qq)
     return limits.clip(np.array(out))
 
@@ -169,7 +188,7 @@ def posture_grid(feet: dict, heights: tuple[float, ...], base_shape: BodyShape, 
     for h in heights:
         shape = base_shape if h == base_shape.height_m else base_shape.scaled_to(h)
         grid = grid_particles(feet[h], shape, U, limits, settings,
-                              configs=[posture_pose(*p) for p in POSTURES_DEG.values()])
+                              configs=[posture_pose(*p) for p in POSTURES_DEG.values()], centred=True)
         pool_q.append(grid)
         pool_w.append(measure(grid, shape))
         pool_h.append(np.full(len(grid), h))
