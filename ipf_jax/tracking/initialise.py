@@ -109,22 +109,35 @@ def body_centroid(q: np.ndarray, shape_values: np.ndarray, U: np.ndarray) -> np.
     return area @ (0.5 * (pose.seg_a + pose.seg_b)) / area.sum()
 
 
+def headings(count: int, facing: float | None = None) -> np.ndarray:
+    """The grid's headings (rad): ``count`` over 360 deg, or with ``facing`` those of the same step
+    within 90 deg of it (``count // 2 + 1``, ``facing`` itself among them)."""
+    if facing is None:
+        return np.linspace(-np.pi, np.pi, count, endpoint=False)
+    step = 2 * np.pi / count
+    half = count // 4
+    yaw = facing + step * np.arange(-half, half + 1)
+    return (yaw + np.pi) % (2 * np.pi) - np.pi
+
+
 def grid_particles(foot: np.ndarray, shape: BodyShape, U: np.ndarray, limits: Limits,
                    settings: InitSettings, configs: list[np.ndarray] | None = None,
-                   centred: bool = False) -> np.ndarray:
+                   centred: bool = False, heading: float | None = None) -> np.ndarray:
     """(G, D) grid configurations standing at positions around ``foot``: ``configs`` (poses at
     the origin, default: the walking ones of ``LEG_CONFIGS_DEG``) x headings x positions.
 
     ``foot`` is under the silhouettes' centroid. A walking pose's root is over its own centroid;
     a seated or crouching one's is not (the thighs reach forward), so with ``centred`` each
-    configuration is moved so that its capsules' centroid, not its root, is over ``foot``."""
+    configuration is moved so that its capsules' centroid, not its root, is over ``foot``.
+    ``heading`` (rad): only the headings within 90 deg of it, at the grid's step (a walker facing
+    the way they travel, :mod:`ipf_jax.tracking.travel`)."""
     k = settings.position_steps
     offsets = settings.position_step_m * np.arange(-k, k + 1)
     east, north, up = U[:, 0], U[:, 1], U[:, 2]
     out = []
     for config in (configs if configs is not None else [gait_pose(*legs) for legs in LEG_CONFIGS_DEG]):
         base = place_on_floor(config, shape.values, U)  # at the origin, on the floor
-        for yaw in np.linspace(-np.pi, np.pi, settings.headings, endpoint=False):
+        for yaw in headings(settings.headings, heading):
             q = base.copy()
             q[3] = yaw
             shift = np.zeros(3)
@@ -145,11 +158,13 @@ Measure = Callable[[np.ndarray, BodyShape], np.ndarray]
 def initialise(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera], U: np.ndarray,
                limits: Limits, base_shape: BodyShape, measure: Measure, *,
                height_m: float | None = None, fixed_shape: BodyShape | None = None,
-               settings: InitSettings = InitSettings()) -> InitResult:
+               settings: InitSettings = InitSettings(), heading: float | None = None) -> InitResult:
     """Search one frame. ``measure(particles, shape) -> weights`` scores on that frame.
 
     ``height_m`` fixes the height (proportions are still fitted); ``fixed_shape`` fixes the whole
-    shape (re-initialisation keeps the subject found at the start).
+    shape (re-initialisation keeps the subject found at the start). ``heading`` (rad): the walking
+    configurations face within 90 deg of it (the direction of travel); the postures beyond walking
+    (seated, crouching: nobody travels so) keep every heading.
     """
     if fixed_shape is not None:
         base_shape, height_m = fixed_shape, fixed_shape.height_m
@@ -159,7 +174,7 @@ def initialise(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera
     pool_q, pool_w, pool_h = [], [], []
     for h in heights:
         shape = base_shape if h == base_shape.height_m else base_shape.scaled_to(h)
-        grid = grid_particles(feet[h], shape, U, limits, settings)
+        grid = grid_particles(feet[h], shape, U, limits, settings, heading=heading)
         w = measure(grid, shape)
         evaluations += len(grid)
         pool_q.append(grid)

@@ -179,6 +179,10 @@ OPTIONS: tuple[Option, ...] = (
            "attempt every K frames (default 3)", check=_at_least(1), metavar="K"),
     Option("origin_shift", "--origin-shift", "bool", True, "body origin positioning from the "
            "silhouettes between frames (default on; --no-origin-shift turns it off)"),
+    Option("facing_travel", "--facing-travel", "bool", True, "the automatic initialisation of a "
+           "walker searches only the headings within 90 deg of the way the silhouettes' floor point "
+           "travels over the next second (when it moves steadily 0.3 m or more; default on; "
+           "--no-facing-travel: every heading, e.g. for someone walking backwards)"),
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)"),
     Option("chunk", "--chunk", "int", None, "particles per compiled call: memory vs speed, never the "

@@ -53,6 +53,7 @@ class TrackSettings(NamedTuple):
     init: InitSettings = InitSettings()
     init_pose: np.ndarray | None = None
     origin_shift: bool = True  # body origin positioning from the silhouettes (tracking.origin)
+    facing_travel: bool = True  # a walker's initialisation faces the way they travel (tracking.travel)
     floor_range: tuple[float, float] | None = None  # floor contact (tracking.contact); None = off
     shape_fit: ShapeFitSettings = ShapeFitSettings()  # the subject's proportions (frames 0: none)
     passes: int = 1  # 2: track, re-fit the shape on the track, track again (tracking.passes)

@@ -385,7 +385,8 @@ class Scene(NamedTuple):
 
     observe : frame -> (Observation, masks at scoring resolution).  frames : the run's frames.
     cameras : scoring cameras.  U : (3, 3) up rotation.  limits : DOF ranges.  scorer : the
-    run's :class:`Scorer`.  key : frame, salt -> JAX key.
+    run's :class:`Scorer`.  key : frame, salt -> JAX key.  heading : frame -> the direction of
+    travel there (rad) or None (:mod:`ipf_jax.tracking.travel`); None: every heading searched.
     """
 
     observe: Callable
@@ -395,6 +396,7 @@ class Scene(NamedTuple):
     limits: Limits
     scorer: Scorer
     key: Callable
+    heading: Callable | None = None
 
 
 def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights: np.ndarray,
@@ -425,7 +427,7 @@ def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights:
         try:
             res = initialise(scene.key(f, 3), [small[i] for i in active], [scene.cameras[i] for i in active],
                              scene.U, scene.limits, shape, _as_body_measure(fn), fixed_shape=shape,
-                             settings=frame_init)
+                             settings=frame_init, heading=scene.heading(f) if scene.heading else None)
         except IPFError:  # no silhouette of a person on that frame: use the others
             skipped.append(int(f))
             continue

@@ -74,6 +74,7 @@ from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc
 from .state import HISTORY, FrameRecord, TrackState
+from .travel import travel_heading, window_frames
 
 __all__ = ["DEFAULT_FPS", "DEFAULT_RESOLUTION", "FrameView", "RunResult", "TrackSettings", "Tracker",
            "track"]
@@ -257,6 +258,23 @@ class Tracker:
         check_cameras_see(foot, self.U[:, 2], [self.dataset.cameras[i] for i in active],
                           [i + 1 for i in active], self.dataset.path)
 
+    def heading_of_travel(self, frame: int) -> float | None:
+        """The direction (rad) the silhouettes' floor point travels from ``frame`` over about a
+        second (:mod:`.travel`), or None: standing still, turning, or ``--no-facing-travel``."""
+        if not self.settings.facing_travel:
+            return None
+        height = self.settings.height_m or self.base_shape.height_m
+        points = []
+        for f in window_frames(self.frames, frame, self.fps):
+            obs, small = self.observe(f)[:2]
+            active = [i for i in range(len(small)) if obs.active[i]]
+            try:
+                points.append(floor_points([small[i] for i in active], [self.cameras[i] for i in active],
+                                           self.U[:, 2], (height,))[height])
+            except IPFError:  # nobody seen on that frame: no direction from it
+                continue
+        return travel_heading(points, self.U)
+
     def initialise(self, frame: int, obs: Observation, small: list[np.ndarray],
                    shape: BodyShape | None, log: list | None = None) -> tuple[np.ndarray, np.ndarray, BodyShape, int]:
         """Particles, weights, subject shape and evaluations; ``shape`` given = re-initialisation.
@@ -273,7 +291,7 @@ class Tracker:
         res = initialise(self.frame_key(frame, 1), [small[i] for i in active],
                          [self.cameras[i] for i in active], self.U, self.limits, self.base_shape,
                          self.measure(obs, log=log), height_m=s.height_m, fixed_shape=shape,
-                         settings=s.init)
+                         settings=s.init, heading=self.heading_of_travel(frame))
         return res.particles, res.weights, res.shape, res.evaluations
 
     def calibrate(self, frame: int, q: np.ndarray, w: np.ndarray, shape: BodyShape):
@@ -282,7 +300,7 @@ class Tracker:
         particles, weights, the shape and the fit's record."""
         s = self.settings
         scene = Scene(lambda f: tuple(self.observe(f)[:2]), self.frames, self.cameras, self.U,
-                      self.limits, self.scorer, self.frame_key)
+                      self.limits, self.scorer, self.frame_key, self.heading_of_travel)
         light = {} if s.init == init_settings() else {"frame_init": s.init}  # --init-budget small
         q, w, shape, _, doc = calibrate_at_start(scene, frame, q, w, shape, height_m=s.height_m,
                                                  settings=s.shape_fit, seed=s.seed, **light)
