@@ -62,6 +62,31 @@ def test_bad_shape_files_name_the_problem(tmp_path, edit, message):
     assert err.value.path == str(path)
 
 
+def test_hip_joints_sit_in_front_of_the_pelvis_and_older_files_keep_theirs(tmp_path):
+    # the hip joint centres lie hip_forward in front of the pelvis capsule's axis (Harrington's
+    # centres are 4-5 cm in front of the pelvis centre); a shape file written before that
+    # parameter describes hips in the pelvis's plane, and loads so, with a warning
+    from ipf_jax.errors import IPFWarning
+    from ipf_jax.geometry.host import forward_kinematics
+
+    def hips_ahead(shape):
+        pose = forward_kinematics(np.zeros(NUM_DOF), shape.values, np.eye(3))
+        hips = pose.points[[POINT_NAMES.index("left_hip"), POINT_NAMES.index("right_hip")], 0]
+        pelvis = pose.seg_a[SEGMENT_NAMES.index("pelvis"), 0]
+        return hips - pelvis
+
+    s = default_shape()
+    assert hips_ahead(s) == pytest.approx([s["hip_forward"]] * 2)
+    assert 0.03 < s["hip_forward"] < 0.05
+    doc = s.to_json()
+    del doc["params"]["hip_forward"]
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(doc))
+    with pytest.warns(IPFWarning, match="written before hip_forward"):
+        old = load_shape(path)
+    assert old["hip_forward"] == 0.0 and hips_ahead(old) == pytest.approx([0.0, 0.0], abs=1e-12)
+
+
 def test_limits_presets():
     d = load_limits("default")
     w = load_limits("walking")

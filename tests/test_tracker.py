@@ -60,10 +60,14 @@ class Crash(Exception):
 
 
 class CrashingDataset(MemoryDataset):
+    """Dies while tracking frame ``crash_at``: on reading it right after the frame before (the
+    start also reads frames ahead, to see where the person travels, and must not crash)."""
     crash_at = None
+    last = None
 
     def masks(self, frame):
-        if frame == self.crash_at:
+        previous, self.last = self.last, frame
+        if self.crash_at is not None and frame == self.crash_at and previous == frame - 1:
             raise Crash()
         return super().masks(frame)
 

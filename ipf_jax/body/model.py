@@ -117,7 +117,7 @@ def _leg(side: str, s: int) -> tuple[Frame, ...]:
     # s = +1 left, -1 right: mirrored abduction / rotation / inversion signs.
     hw = "+hip_half_width" if s > 0 else "-hip_half_width"
     return (
-        Frame(f"{side}_thigh", "pelvis", (0, hw, "-hip_down"),
+        Frame(f"{side}_thigh", "pelvis", ("+hip_forward", hw, "-hip_down"),
               (("y", -1, f"{side}_hip_flexion"), ("x", s, f"{side}_hip_abduction"),
                ("z", -s, f"{side}_hip_rotation"))),
         Frame(f"{side}_shank", f"{side}_thigh", (0, 0, "-thigh"),
@@ -161,7 +161,7 @@ class Point(NamedTuple):
 def _leg_points(side: str) -> tuple[Point, ...]:
     hw = "+hip_half_width" if side == "left" else "-hip_half_width"
     return (
-        Point(f"{side}_hip", "pelvis", (0, hw, "-hip_down")),
+        Point(f"{side}_hip", "pelvis", ("+hip_forward", hw, "-hip_down")),
         Point(f"{side}_knee", f"{side}_thigh", (0, 0, "-thigh")),
         Point(f"{side}_ankle", f"{side}_shank", (0, 0, "-shank")),
         Point(f"{side}_heel", f"{side}_foot", ("-heel_back", 0, "-heel_down")),
@@ -249,8 +249,12 @@ SHAPE_PARAM_NAMES: tuple[str, ...] = (
     "pelvis_r", "trunk_r_low", "trunk_r_high", "neck_r", "head_r",
     "thigh_r0", "thigh_r1", "shank_r0", "shank_r1", "foot_r0", "foot_r1",
     "upper_arm_r0", "upper_arm_r1", "forearm_r0", "forearm_r1", "hand_r0", "hand_r1",
+    "hip_forward",
 )
 SHAPE_INDEX = {n: i for i, n in enumerate(SHAPE_PARAM_NAMES)}
+#: Parameters added after shape files were first written, with the value that keeps an older
+#: document's body as it was: ``hip_forward`` 0 put the hip joints in the pelvis capsule's plane.
+LEGACY_PARAMS = {"hip_forward": 0.0}
 
 assert NUM_POINTS == 19 and NUM_SEGMENTS == 17 and NUM_DOF == 31
 

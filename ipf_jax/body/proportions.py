@@ -1,7 +1,7 @@
 """A subject's proportions: the segment groups a shape fit moves, their anthropometric bounds, the
 anatomical rule that places the hip joint centres inside the pelvis, and standing height.
 
-The 44 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 15 left/right
+The 45 shape parameters of :data:`ipf_jax.body.model.SHAPE_PARAM_NAMES` are moved in 15 left/right
 symmetric **groups** (:data:`GROUPS`): 8 lengths (thigh, shank, foot, trunk, neck and head, upper
 arm, forearm and hand), the sole-to-ankle height, 2 breadths (pelvis, shoulders), 4 girths
 (torso, legs, arms, head and neck) and the shoe's girth (the foot's radii). Every
@@ -67,7 +67,7 @@ GROUPS: tuple[Group, ...] = (
     # sole-to-ankle height: the foot's vertical offsets (shoes raise it; their size: foot_girth)
     Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down")),
     Group("trunk", "length", ("hip_down", "trunk", "pelvis_up", "trunk_low", "trunk_top_gap",
-                              "shoulder_drop")),
+                              "shoulder_drop", "hip_forward")),
     Group("head", "length", ("neck", "head_forward", "head_low", "head_high")),
     Group("upper_arm", "length", ("upper_arm",)),
     Group("forearm", "length", ("forearm", "hand")),
@@ -154,6 +154,7 @@ def _param_bounds() -> tuple[np.ndarray, np.ndarray]:
         for n in g.params:
             lo[_I[n]], hi[_I[n]] = BOUNDS[g.kind]
     lo[_I["hip_half_width"]] = hi[_I["hip_half_width"]] = HIP_SPACING_BOUND
+    lo[_I["hip_forward"]] = 1.0  # 0 is an older shape file's (hips in the pelvis's plane)
     return TEMPLATE_RATIO * (1 - lo), TEMPLATE_RATIO * (1 + hi)
 
 

@@ -8,13 +8,14 @@ within the anthropometric bounds of :mod:`ipf_jax.body.proportions`. The default
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import IPFError, load_json, require
-from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
+from ..errors import IPFError, IPFWarning, load_json, require
+from .model import LEGACY_PARAMS, SHAPE_INDEX, SHAPE_PARAM_NAMES
 from .proportions import check_bounds
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -73,7 +74,7 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     """A shape from its JSON document (``run.json``'s ``shape`` too); IPFError names ``path``."""
     require(isinstance(doc, dict) and isinstance(doc.get("params"), dict),
             "shape file needs a 'params' object", path)
-    params = doc["params"]
+    params = with_legacy_params(doc["params"], path)
     missing = [n for n in SHAPE_PARAM_NAMES if n not in params]
     require(not missing, f"shape file misses parameters: {', '.join(missing)}", path)
     unknown = sorted(set(params) - set(SHAPE_PARAM_NAMES))
@@ -91,6 +92,18 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     require(0.5 <= height <= 2.6, f"height_m {height} is outside 0.5..2.6 m", path)
     check_bounds(values, path)  # anthropometric ratios (ipf_jax.body.proportions)
     return BodyShape(values, height)
+
+
+def with_legacy_params(params: dict, path: str | Path | None = None, warn: bool = True) -> dict:
+    """``params`` with the parameters a file written before them lacks (:data:`LEGACY_PARAMS`:
+    the values that keep its body as it was), with one warning naming them."""
+    added = {n: v for n, v in LEGACY_PARAMS.items() if n not in params}
+    if added and warn and len(added) < len(SHAPE_PARAM_NAMES):
+        where = f"{path}: " if path is not None else ""
+        warnings.warn(f"{where}a shape written before {', '.join(added)}: "
+                      f"{', '.join(f'{n} = {v:g}' for n, v in added.items())} keeps its body as it was "
+                      "(refit for the current model)", IPFWarning, stacklevel=3)
+    return {**added, **params}
 
 
 def default_shape(height_m: float | None = None) -> BodyShape:

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..body.model import NUM_DOF, NUM_POINTS, SHAPE_PARAM_NAMES
-from ..body.shape import BodyShape, default_shape
+from ..body.shape import BodyShape, default_shape, with_legacy_params
 from ..errors import IPFError, load_json, require
 from ..geometry.host import forward_kinematics
 from ..geometry.world import AXES, axis_vector, up_rotation
@@ -63,7 +63,8 @@ def _read_table(path: Path, header: list[str]) -> tuple[np.ndarray, np.ndarray, 
 def _shape_from_json(doc: object, path: Path) -> BodyShape:
     # run.json embeds a shape file's content; its values were validated when tracking started.
     try:
-        values = np.array([float(doc["params"][n]) for n in SHAPE_PARAM_NAMES])  # type: ignore[index]
+        params = with_legacy_params(doc["params"], path, warn=False)  # type: ignore[index]
+        values = np.array([float(params[n]) for n in SHAPE_PARAM_NAMES])
         height = float(doc.get("height_m", 1.75))  # type: ignore[union-attr]
     except (TypeError, KeyError, ValueError, AttributeError) as e:
         raise IPFError(f"'shape' is not a shape object with every parameter ({e!r})", path) from None
