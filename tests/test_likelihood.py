@@ -142,8 +142,8 @@ def test_no_retrace_across_frames(scene):
     cams, q, masks, particles = scene
     scorer = Scorer(cams, SHAPE, U, chunk=16)
     scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
-    stages = {"_geometry_jit": ("_geometry_impl", ("long_side",)),
-              "_intervals_jit": ("_intervals_impl", ("n_win", "q", "long_side")),
+    stages = {"_geometry_jit": ("_geometry_impl", ("long_side", "scan_q")),
+              "_intervals_jit": ("_intervals_impl", ("n_win", "q")),
               "_words_jit": ("_words_impl", ("n_win_words", "n_rows", "n_words"))}
     saved = {name: getattr(likelihood, name) for name in stages}
     try:

@@ -166,6 +166,82 @@ def _bound(xp, c, d, inv_d, t_lo, t_hi):
     return xp.where(ok, n, n - xp.sign(d))
 
 
+class RowCoeffs(NamedTuple):
+    """What the row-interval solve needs of each capsule (:func:`row_coeffs`), field axes first.
+
+    disc : (2, 3, *batch) int32, (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid;
+    edge : (4, 3, *batch) int32, (ex, n0, d) of each quad edge: on fixed-point row ``y`` the edge's
+        half-plane holds the columns j with ``d j <= ex y + n0`` (``d = Q ey``);
+    inv_d : (4, *batch) float32, 1/d of each edge (1 where d = 0);  quad_on, drawn : (*batch) bool.
+
+    Computed once per capsule, not once per row: XLA fuses such per-capsule work into the row loop
+    and, when the particle axis is the loop's innermost one, recomputes it for every row.
+    """
+
+    disc: jnp.ndarray
+    edge: jnp.ndarray
+    inv_d: jnp.ndarray
+    quad_on: jnp.ndarray
+    drawn: jnp.ndarray
+
+
+def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
+    """:class:`QuantCaps` (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
+    disc = xp.stack([xp.stack([qc.disc[..., k, 0], qc.disc[..., k, 1],
+                               qc.disc[..., k, 2] * qc.disc[..., k, 2]]) for k in range(2)])
+    edges, inv_d = [], []
+    for k in range(4):
+        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
+        ax, ay = a[..., 0], a[..., 1]
+        ex, ey = b[..., 0] - ax, b[..., 1] - ay
+        d = ey * q
+        edges.append(xp.stack([ex, ey * ax - ex * ay, d]))
+        inv_d.append(np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32))
+    return RowCoeffs(disc, xp.stack(edges), xp.stack(inv_d), qc.quad_on, qc.drawn)
+
+
+def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
+    """Exact column interval of every capsule on fixed-point rows ``py`` (row-convex fill).
+
+    ``at`` maps a per-capsule array (shape ``rc.drawn.shape``) to one that broadcasts against
+    ``py`` (e.g. ``a[..., None]`` with rows last, ``a[:, None, :]`` with particles last). Returns
+    lo, hi of the broadcast shape, int32, clipped to [-1, width] (empty when lo > hi).
+    """
+    shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
+    shape = xp.broadcast_shapes(py.shape, at(rc.drawn).shape)
+    lo = xp.full(shape, _FAR, xp.int32)
+    hi = xp.full(shape, -_FAR, xp.int32)
+    for k in range(2):
+        cx, cy, rr = (at(rc.disc[k, i]) for i in range(3))
+        dy = xp.clip(py - cy, -_BIG, _BIG)
+        m = rr - dy * dy
+        s = _isqrt(xp, xp.maximum(m, 0))
+        d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
+        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
+        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
+        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
+    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
+    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
+    q_lo = xp.full(shape, -_FAR, xp.int32)
+    q_hi = xp.full(shape, _FAR, xp.int32)
+    q_ok = xp.broadcast_to(at(rc.quad_on), shape)
+    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
+    for k in range(4):
+        ex, n0, d = (at(rc.edge[k, i]) for i in range(3))
+        n = ex * py + n0
+        j = _bound(xp, n, d, at(rc.inv_d[k]), j_lo, j_hi)
+        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
+        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
+        q_ok = q_ok & ((d != 0) | (n >= 0))
+    q_ok = q_ok & (q_lo <= q_hi)
+    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
+    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
+    drawn = at(rc.drawn)
+    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
+    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
+    return lo, hi
+
+
 def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
     """Exact column interval of every capsule on every row (row-convex fill of its parts).
 
@@ -176,43 +252,8 @@ def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
     keeps quantisation slivers from splitting a row. ``xp`` is the array namespace (NumPy for the
     vectorised NumPy baseline, which adds leading particle axes).
     """
-    shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
     py = (rows if rows.ndim == qc.drawn.ndim + 1 else rows[..., None, :]) * q  # (..., S or 1, R)
-    shape = xp.broadcast_shapes(py.shape, qc.drawn.shape + (1,))
-    lo = xp.full(shape, _FAR, xp.int32)
-    hi = xp.full(shape, -_FAR, xp.int32)
-    for k in range(2):
-        cx, cy, r = (qc.disc[..., k, i][..., None] for i in range(3))  # (..., S, 1)
-        dy = xp.clip(py - cy, -_BIG, _BIG)
-        m = r * r - dy * dy
-        s = _isqrt(xp, xp.maximum(m, 0))
-        d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
-        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
-        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
-        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
-    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
-    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
-    q_lo = xp.full(shape, -_FAR, xp.int32)
-    q_hi = xp.full(shape, _FAR, xp.int32)
-    q_ok = xp.broadcast_to(qc.quad_on[..., None], shape)
-    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
-    for k in range(4):
-        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
-        ax, ay = a[..., 0:1], a[..., 1:2]
-        ex, ey = b[..., 0:1] - ax, b[..., 1:2] - ay  # (..., S, 1)
-        n = ex * py + (ey * ax - ex * ay)  # (..., S, R)
-        d = ey * q
-        j = _bound(xp, n, d, np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32), j_lo, j_hi)
-        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
-        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
-        q_ok = q_ok & ((d != 0) | (n >= 0))
-    q_ok = q_ok & (q_lo <= q_hi)
-    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
-    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
-    drawn = qc.drawn[..., None]
-    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
-    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
-    return lo, hi
+    return solve_rows(row_coeffs(xp, qc, q), py, q, width, lambda a: a[..., None], xp)
 
 
 def pack_intervals(lo, hi, rows, height, width, xp=jnp):
@@ -235,14 +276,25 @@ def _window_rows(win_rows, n_win: int, xp=jnp):
     return win_rows[..., None] + xp.arange(n_win, dtype=xp.int32)
 
 
-def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
-    """Scanline kernel, stage 1: (S, 15) records -> (S, R) packed intervals on each window.
+def batch_intervals(rc: RowCoeffs, win_rows, n_win: int, q: int, height, width):
+    """Scanline kernel, stage 1, particle axis last: :class:`RowCoeffs` of batch (S, B) -> (S, R, B)
+    packed intervals on each capsule's window.
 
-    win_rows : (S,) int32 first row of each capsule's window;  n_win : R (static).
+    win_rows : (S,) int32 first row of each capsule's window (shared by the B particles);
+    n_win : R (static). Particles last, the row loop vectorises over particles without a tail and
+    the per-capsule coefficients are read, not recomputed (measured: docs/benchmarks.md).
     """
-    rows = _window_rows(win_rows, n_win)
-    lo, hi = row_intervals(quantize(jnp, caps, q, long_side), rows, q, width)
-    return pack_intervals(lo, hi, rows, height, width)
+    rows = _window_rows(win_rows, n_win)  # (S, R)
+    lo, hi = solve_rows(rc, (rows * q)[:, :, None], q, width, lambda a: a[:, None, :])
+    return pack_intervals(lo, hi, rows[:, :, None], height, width)
+
+
+def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
+    """Scanline kernel, stage 1, one capsule set: (S, 15) records -> (S, R) packed intervals
+    (:func:`batch_intervals` with one particle)."""
+    rc = row_coeffs(jnp, quantize(jnp, caps, q, long_side), q)
+    one = RowCoeffs(*(a[..., None] for a in rc))
+    return batch_intervals(one, win_rows, n_win, q, height, width)[..., 0]
 
 
 def parts_inside(qc: QuantCaps, px, py, xp=jnp):
@@ -306,34 +358,46 @@ class Roi(NamedTuple):
 
 
 def window_bits(packed, win_words, n_win_words: int):
-    """(S, R) packed intervals -> (S, Wd, R) uint32 bit words of each capsule's window."""
+    """(S, R, B) packed intervals -> (S, Wd, R, B) uint32 bit words of each capsule's window."""
     lo, hi = unpack_intervals(packed)
-    base = ((win_words[:, None] + jnp.arange(n_win_words, dtype=jnp.int32)) * WORD)[:, :, None]
-    a = jnp.clip(lo[:, None, :] - base, 0, WORD)
-    b = jnp.clip(hi[:, None, :] + 1 - base, 0, WORD)
+    base = ((win_words[:, None] + jnp.arange(n_win_words, dtype=jnp.int32)) * WORD)[..., None, None]
+    a = jnp.clip(lo[:, None] - base, 0, WORD)
+    b = jnp.clip(hi[:, None] + 1 - base, 0, WORD)
     return _bits_between(a, jnp.maximum(a, b))
+
+
+def batch_words(packed, sil_words, roi: Roi, win_rows, win_words, n_win_words: int, n_rows: int,
+                n_words: int):
+    """Stage 2, particle axis last: (S, R, B) packed intervals -> (Nc, Nm_total), each (B,) int32,
+    against one bit-packed mask.
+
+    Each capsule's window of bit words is ORed into the union grid (words, rows, particles), ANDed
+    with the mask's words and counted with ``population_count``. The window offsets are shared by
+    all particles, so every update is a plain dynamic slice whose innermost axis, the particles,
+    is whole: the loops vectorise without tails or unaligned starts (with rows innermost this
+    stage took twice as long: docs/benchmarks.md).
+    """
+    bits = window_bits(packed, win_words, n_win_words)
+    grid = jnp.zeros((n_words, n_rows, packed.shape[-1]), jnp.uint32)
+    for s in range(bits.shape[0]):  # unrolled: one in-place update per capsule
+        pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0, 0)
+        old = jax.lax.dynamic_slice(grid, pos, bits.shape[1:])
+        grid = jax.lax.dynamic_update_slice(grid, old | bits[s], pos)
+    sil = jax.lax.dynamic_slice(sil_words, (roi.row0, roi.word0), (n_rows, n_words)).T[..., None]
+    # both counts in one pass: per row they stay below 2**16 (at most 64 words of 32 bits)
+    both = (jax.lax.population_count(grid & sil).astype(jnp.int32)
+            + (jax.lax.population_count(grid).astype(jnp.int32) << 16))
+    per_row = jnp.sum(both, axis=0)  # (rows, B)
+    return jnp.sum(per_row & 0xFFFF, axis=0), jnp.sum(per_row >> 16, axis=0)
 
 
 def word_stage(packed, sil_words, roi: Roi, win_rows, win_words, n_win_words: int, n_rows: int,
                n_words: int):
-    """Stage 2: (S, R) packed intervals -> (Nc, Nm_total) int32 against one bit-packed mask.
-
-    Each capsule's window of bit words is ORed into the union grid (rows minor, so the loops
-    vectorise; the window offsets are shared by all particles, so under vmap they stay plain
-    dynamic slices), ANDed with the mask's words and counted with ``population_count``.
-    """
-    bits = window_bits(packed, win_words, n_win_words)
-    grid = jnp.zeros((n_words, n_rows), jnp.uint32)
-    for s in range(bits.shape[0]):  # unrolled: one in-place update per capsule
-        pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0)
-        old = jax.lax.dynamic_slice(grid, pos, bits.shape[1:])
-        grid = jax.lax.dynamic_update_slice(grid, old | bits[s], pos)
-    sil = jax.lax.dynamic_slice(sil_words, (roi.row0, roi.word0), (n_rows, n_words)).T
-    # both counts in one pass: per row they stay below 2**16 (at most 64 words of 32 bits)
-    both = (jax.lax.population_count(grid & sil).astype(jnp.int32)
-            + (jax.lax.population_count(grid).astype(jnp.int32) << 16))
-    per_row = jnp.sum(both, axis=0)  # (rows,)
-    return jnp.sum(per_row & 0xFFFF), jnp.sum(per_row >> 16)
+    """Stage 2, one capsule set: (S, R) packed intervals -> (Nc, Nm_total) int32 scalars
+    (:func:`batch_words` with one particle)."""
+    nc, nm = batch_words(packed[..., None], sil_words, roi, win_rows, win_words, n_win_words,
+                         n_rows, n_words)
+    return nc[0], nm[0]
 
 
 def _whole_roi(caps, roi: Roi):

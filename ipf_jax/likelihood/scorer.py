@@ -55,12 +55,15 @@ from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from .raster import (
     WORD,
     Roi,
+    RowCoeffs,
+    batch_intervals,
+    batch_words,
     dense_interval_stage,
-    interval_stage,
     pack_rows,
     quant_scale,
+    quantize,
+    row_coeffs,
     segment_extent,
-    word_stage,
 )
 
 KERNELS = ("scanline", "dense")
@@ -154,40 +157,50 @@ def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
 
 
 # -- the compiled stages (B particles; batched here, once) --------------------------------------
-def _geometry_impl(q, shape_values, up, cams, long_side):
-    """Stage 1: (B, D) particles -> C arrays (15, S, B) of capsule records, one per camera, and
-    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max).
+def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
+    """Stage 1: (B, D) particles -> C records, one per camera, and (C, S, 4) float32 extents of
+    each capsule over the chunk (row_min, row_max, col_min, col_max).
+
+    The records are (15, S, B) capsule records, or with ``scan_q`` (the scanline kernel's
+    fixed-point scale; 0: records) each capsule's :class:`~ipf_jax.likelihood.raster.RowCoeffs`
+    (batch (S, B)): a program's outputs are materialised, so the rows of stage 2 read them instead
+    of recomputing the quantisation per row (computed in stage 2, XLA fused it into the row loop
+    even behind an ``optimization_barrier``).
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
-    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))
-    ext = segment_extent(jnp, jnp.moveaxis(caps, 1, -1), long_side)  # (C, S, B, 4)
+    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))  # (C, 15, S, B)
+    by_seg = jnp.moveaxis(caps, 1, -1)  # (C, S, B, 15)
+    ext = segment_extent(jnp, by_seg, long_side)  # (C, S, B, 4)
     union = jnp.stack([ext[..., 0].min(2), ext[..., 1].max(2), ext[..., 2].min(2),
                        ext[..., 3].max(2)], -1)
-    return tuple(caps[c] for c in range(caps.shape[0])), union
+    if not scan_q:
+        return tuple(caps[c] for c in range(caps.shape[0])), union
+    rc = row_coeffs(jnp, quantize(jnp, by_seg, scan_q, long_side), scan_q)  # batch (C, S, B)
+    per_cam = tuple(RowCoeffs(*(a[..., c, :, :] for a in rc)) for c in range(caps.shape[0]))
+    return per_cam, union
 
 
-def _intervals_impl(caps, win_rows, height, width, n_win, q, long_side):
-    """Stage 2 (scanline), one camera: (15, S, B) records -> (B, S, R) packed row intervals."""
-    return jax.vmap(lambda c: interval_stage(c.T, win_rows, n_win, q, long_side, height, width),
-                    in_axes=2)(caps)
+def _intervals_impl(rc, win_rows, height, width, n_win, q):
+    """Stage 2 (scanline), one camera: RowCoeffs of batch (S, B) -> (S, R, B) packed row intervals."""
+    return batch_intervals(rc, win_rows, n_win, q, height, width)
 
 
 def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
-    """Stage 2 (dense), one camera: the same packed intervals by per-pixel tests."""
+    """Stage 2 (dense), one camera: the same packed intervals (S, R, B) by per-pixel tests."""
     return jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words, q,
-                                                   long_side, height, width), in_axes=2)(caps)
+                                                   long_side, height, width),
+                    in_axes=2, out_axes=2)(caps)
 
 
 def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):
-    """Stage 3, one camera: (B, S, R) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
-    roi = Roi(row0, word0)
-    return jax.vmap(lambda p: jnp.stack(word_stage(p, sil_words, roi, win_rows, win_words,
-                                                   n_win_words, n_rows, n_words)))(packed)
+    """Stage 3, one camera: (S, R, B) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
+    return jnp.stack(batch_words(packed, sil_words, Roi(row0, word0), win_rows, win_words,
+                                 n_win_words, n_rows, n_words), -1)
 
 
-_geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side",))
-_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q", "long_side"))
+_geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side", "scan_q"))
+_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q"))
 _dense_jit = jax.jit(_dense_impl, static_argnames=("n_win", "n_win_words", "q", "long_side"))
 _words_jit = jax.jit(_words_impl, static_argnames=("n_win_words", "n_rows", "n_words"))
 
@@ -329,16 +342,18 @@ class Scorer:
             start += b
 
     # -- stage 1 and the window plan -------------------------------------------------------------
-    def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None):
-        """Stage 1 for every chunk: per-camera capsule records (kept on device) and the (C, S, 4)
-        int64 extent of every capsule over all particles. ``shapes`` (N, P): a body per particle
-        (default: :attr:`shape` for all)."""
+    def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None,
+                 kernel: str | None = None):
+        """Stage 1 for every chunk: per-camera records for ``kernel``'s stage 2 (default the
+        scorer's; kept on device) and the (C, S, 4) int64 extent of every capsule over all
+        particles. ``shapes`` (N, P): a body per particle (default: :attr:`shape` for all)."""
         caps, exts = [], []
         bodies = (self._chunks(shapes) if shapes is not None
                   else itertools.repeat((0, self.shape_values)))
+        scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
         for (_, block), (_, body) in zip(self._chunks(particles), bodies):
             c, ext = _geometry_jit(self._put(block, True), self._put(body, body.ndim == 2), self.up,
-                                   self.cams, long_side=self.long_side)
+                                   self.cams, long_side=self.long_side, scan_q=scan_q)
             caps.append(c)
             exts.append(ext)
         ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
@@ -420,17 +435,19 @@ class Scorer:
         profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras), then per
         camera ``intervals cam K``, ``words cam K`` and ``dense intervals cam K``. The windows are
         planned for ``particles`` first, as :meth:`counts` does."""
-        caps, ext = self.geometry(particles)
+        caps, ext = self.geometry(particles, kernel="scanline")
+        dense_caps, _ = self.geometry(particles, kernel="dense")
         win = self.plan(ext)
         block = next(self._chunks(np.asarray(particles)))[1]
         out = {"geometry (all cameras)": lambda: _geometry_jit(
-            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side)}
+            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side,
+            scan_q=self.q)}
         for c in range(len(self.cameras)):
-            cap, h, w, sz = caps[0][c], self.heights[c], self.widths[c], self.sizes[c]
+            rc, cap = caps[0][c], dense_caps[0][c]
+            h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
 
-            def intervals(cap=cap, c=c, h=h, w=w, sz=sz):
-                return _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
-                                      long_side=self.long_side)
+            def intervals(rc=rc, c=c, h=h, w=w, sz=sz):
+                return _intervals_jit(rc, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q)
 
             packed = intervals()
             out[f"intervals cam {c + 1}"] = intervals
@@ -471,8 +488,7 @@ class Scorer:
             for c, cap in enumerate(chunk_caps):
                 h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
                 if self.kernel == "scanline":
-                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
-                                            long_side=self.long_side)
+                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q)
                 else:
                     packed = _dense_jit(cap, win.win_rows[c], win.win_words[c], h, w,
                                         n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
