@@ -56,9 +56,10 @@ from .raster import (
     WORD,
     Roi,
     RowCoeffs,
-    batch_intervals,
+    RowList,
     batch_words,
     dense_interval_stage,
+    list_intervals,
     pack_rows,
     quant_scale,
     quantize,
@@ -181,37 +182,43 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     return per_cam, union
 
 
-def _intervals_impl(rc, win_rows, height, width, n_win, q):
-    """Stage 2 (scanline), one camera: RowCoeffs of batch (S, B) -> (S, R, B) packed row intervals."""
-    return batch_intervals(rc, win_rows, n_win, q, height, width)
+def _intervals_impl(rc, rows, height, width, q):
+    """Stage 2 (scanline), one camera: RowCoeffs of batch (S, B) -> (T, B) packed intervals of
+    the :class:`~ipf_jax.likelihood.raster.RowList` ``rows``."""
+    return list_intervals(rc, rows, q, height, width)
 
 
-def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
-    """Stage 2 (dense), one camera: the same packed intervals (S, R, B) by per-pixel tests."""
-    return jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words, q,
-                                                   long_side, height, width),
-                    in_axes=2, out_axes=2)(caps)
+def _dense_impl(caps, rows, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
+    """Stage 2 (dense), one camera: the same (T, B) packed intervals by per-pixel tests on each
+    capsule's window, then picked in the list's order."""
+    packed = jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words,
+                                                     q, long_side, height, width),
+                      in_axes=2, out_axes=2)(caps)  # (S, R, B)
+    return packed[rows.seg, rows.row - win_rows[rows.seg]]
 
 
-def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):
-    """Stage 3, one camera: (S, R, B) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
-    return jnp.stack(batch_words(packed, sil_words, Roi(row0, word0), win_rows, win_words,
-                                 n_win_words, n_rows, n_words), -1)
+def _words_impl(packed, rows, sil_words, row0, word0, win_rows, win_words, n_win, n_win_words,
+                n_rows, n_words):
+    """Stage 3, one camera: (T, B) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
+    return jnp.stack(batch_words(packed, rows, sil_words, Roi(row0, word0), win_rows, win_words,
+                                 n_win, n_win_words, n_rows, n_words), -1)
 
 
 _geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side", "scan_q"))
-_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q"))
+_intervals_jit = jax.jit(_intervals_impl, static_argnames=("q",))
 _dense_jit = jax.jit(_dense_impl, static_argnames=("n_win", "n_win_words", "q", "long_side"))
-_words_jit = jax.jit(_words_impl, static_argnames=("n_win_words", "n_rows", "n_words"))
+_words_jit = jax.jit(_words_impl, static_argnames=("n_win", "n_win_words", "n_rows", "n_words"))
 
 
 class Sizes(NamedTuple):
-    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words."""
+    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words,
+    entries T of the row list."""
 
     win_rows: int
     win_words: int
     rows: int
     words: int
+    list_rows: int
 
 
 class Windows(NamedTuple):
@@ -219,12 +226,38 @@ class Windows(NamedTuple):
 
     row0, word0 : (C,) origin of each camera's union grid.
     win_rows, win_words : (C, S) origin of each capsule's window.
+    rows : C :class:`~ipf_jax.likelihood.raster.RowList`, the rows stage 2 solves in each camera.
     """
 
     row0: np.ndarray
     word0: np.ndarray
     win_rows: np.ndarray
     win_words: np.ndarray
+    rows: tuple
+
+
+def row_list(win_rows: np.ndarray, count: np.ndarray, n_win: int, n_list: int) -> RowList:
+    """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of the first ``count[s]`` rows of each
+    capsule's window (S,), padded to ``n_list`` entries with copies of the last one. The capsule
+    with the most rows goes last, so each capsule's R entries from its first lie in the list with
+    ``list_need(count, n_win) <= n_list`` entries."""
+    order = np.argsort(count, kind="stable")
+    counts = count[order]
+    first = np.zeros(len(count), np.int64)
+    first[order] = np.cumsum(counts) - counts
+    seg = np.repeat(order, counts)
+    row = np.repeat(win_rows[order], counts) + np.arange(len(seg)) - np.repeat(first[order], counts)
+    if len(seg) == 0:
+        seg, row = np.zeros(1, np.int64), win_rows[:1]
+    pad = n_list - len(seg)
+    seg, row = np.concatenate([seg, np.repeat(seg[-1:], pad)]), np.concatenate([row, np.repeat(row[-1:], pad)])
+    return RowList(seg.astype(np.int32), row.astype(np.int32), first.astype(np.int32),
+                   count.astype(np.int32))
+
+
+def list_need(count: np.ndarray, n_win: int) -> int:
+    """Entries :func:`row_list` needs: every row counted, then R from the last capsule's first."""
+    return int(count.sum() - count.max() + n_win)
 
 
 def _round_up(n: int, step: int, cap: int) -> int:
@@ -296,6 +329,7 @@ class Scorer:
         self.q = quant_scale(int(self.heights.max()), int(self.widths.max()))
         self.h_pad = int(self.heights.max())
         self.w_words = int(-(-self.widths.max() // WORD))
+        self._list_cap = len(SEGMENT_ENDS) * self.h_pad  # row-list entries: every row of every capsule
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
         self._devices = len(devices)
@@ -366,10 +400,12 @@ class Scorer:
         do not fit. ``full``: every window is the whole image (the counts do not depend on it)."""
         n_cam, n_seg = ext.shape[:2]
         if full:
-            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words)] * n_cam
+            n_list = n_seg * self.h_pad
+            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words, n_list)] * n_cam
             zero = np.zeros(n_cam, np.int32)
+            whole = row_list(np.zeros(n_seg, np.int64), np.full(n_seg, self.h_pad), self.h_pad, n_list)
             return Windows(zero, zero, np.zeros((n_cam, n_seg), np.int32),
-                           np.zeros((n_cam, n_seg), np.int32))
+                           np.zeros((n_cam, n_seg), np.int32), (whole,) * n_cam)
         h, w = self.heights[:, None], self.widths[:, None]
         seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
         r_lo, r_hi = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
@@ -386,30 +422,39 @@ class Scorer:
         win_r, grid_r, g_row = span(r_lo, r_hi)
         win_w, grid_w, g_word = span(w_lo, w_hi)
         # per camera (a camera nearer the person needs bigger windows); buckets from ladders
-        # (_bucket) that only grow here and shrink in new_frame
-        need = np.stack([win_r, win_w, grid_r, grid_w], 1).astype(np.int64)
-        self._need = need if self._need is None else np.maximum(self._need, need)
-        self.sizes = self._buckets(need, shrink=False)
-        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*self.sizes))
+        # (_bucket) that only grow here and shrink in new_frame; the row list's after the windows
+        need = np.stack([win_r, win_w, grid_r, grid_w, np.zeros_like(win_r)], 1).astype(np.int64)
+        sizes = self._buckets(need, shrink=False)
+        n_win, n_win_words, n_rows, n_words, _ = (np.array(v)[:, None] for v in zip(*sizes))
         row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
         word0 = np.minimum(g_word[:, None], self.w_words - n_words)
         # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
         win_rows = np.clip(np.where(seen, r_lo, row0), row0, row0 + n_rows - n_win)
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
+        count = np.where(seen, r_hi - win_rows + 1, 0)  # the window's rows down to the capsule's last
+        for c, sz in enumerate(sizes):
+            need[c, 4] = list_need(count[c], sz.win_rows)
+            sizes[c] = sz._replace(list_rows=_bucket(sz.list_rows, int(need[c, 4]), 8,
+                                                     self._list_cap))
+        self._need = need if self._need is None else np.maximum(self._need, need)
+        self.sizes = sizes
+        rows = tuple(row_list(win_rows[c], count[c], sz.win_rows, sz.list_rows)
+                     for c, sz in enumerate(sizes))
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
-                       win_rows.astype(np.int32), win_words.astype(np.int32))
+                       win_rows.astype(np.int32), win_words.astype(np.int32), rows)
 
     def _buckets(self, need: np.ndarray, shrink: bool) -> list[Sizes]:
-        """Per camera, the static sizes holding ``need`` (C, 4): window rows and words, grid rows
-        and words, from fixed ladders (:func:`_bucket`)."""
+        """Per camera, the static sizes holding ``need`` (C, 5): window rows and words, grid rows
+        and words, row-list entries, from fixed ladders (:func:`_bucket`)."""
         sizes = []
-        for c, (win_r, win_w, grid_r, grid_w) in enumerate(need.tolist()):
-            old = self.sizes[c] if self.sizes else Sizes(0, 0, 0, 0)
+        for c, (win_r, win_w, grid_r, grid_w, list_r) in enumerate(need.tolist()):
+            old = self.sizes[c] if self.sizes else Sizes(0, 0, 0, 0, 0)
             n_win = _bucket(old.win_rows, win_r, 8, self.h_pad, shrink)
             n_win_words = _bucket(old.win_words, win_w, 1, self.w_words, shrink)
             n_rows = max(n_win, _bucket(old.rows, grid_r, 16, self.h_pad, shrink))
             n_words = max(n_win_words, _bucket(old.words, grid_w, 2, self.w_words, shrink))
-            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
+            n_list = _bucket(old.list_rows, list_r, 8, self._list_cap, shrink)
+            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words, n_list))
         return sizes
 
     def reset_windows(self) -> None:
@@ -446,16 +491,17 @@ class Scorer:
             rc, cap = caps[0][c], dense_caps[0][c]
             h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
 
-            def intervals(rc=rc, c=c, h=h, w=w, sz=sz):
-                return _intervals_jit(rc, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q)
+            def intervals(rc=rc, c=c, h=h, w=w):
+                return _intervals_jit(rc, win.rows[c], h, w, q=self.q)
 
             packed = intervals()
             out[f"intervals cam {c + 1}"] = intervals
             out[f"words cam {c + 1}"] = lambda packed=packed, c=c, sz=sz: _words_jit(
-                packed, obs.words[c], win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c],
-                n_win_words=sz.win_words, n_rows=sz.rows, n_words=sz.words)
+                packed, win.rows[c], obs.words[c], win.row0[c], win.word0[c], win.win_rows[c],
+                win.win_words[c], n_win=sz.win_rows, n_win_words=sz.win_words, n_rows=sz.rows,
+                n_words=sz.words)
             out[f"dense intervals cam {c + 1}"] = lambda cap=cap, c=c, h=h, w=w, sz=sz: _dense_jit(
-                cap, win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
+                cap, win.rows[c], win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
                 n_win_words=sz.win_words, q=self.q, long_side=self.long_side)
         return out
 
@@ -482,20 +528,22 @@ class Scorer:
         caps, ext = self.geometry(particles, shapes)
         win = self.plan(ext, full=full_roi)
         sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
+        rows = [RowList(*(self._put(a) for a in r)) for r in win.rows]  # sent once, not per chunk
         pending = []
         for (start, _), chunk_caps in zip(self._chunks(particles), caps):
             per_cam = []
             for c, cap in enumerate(chunk_caps):
                 h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
                 if self.kernel == "scanline":
-                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q)
+                    packed = _intervals_jit(cap, rows[c], h, w, q=self.q)
                 else:
-                    packed = _dense_jit(cap, win.win_rows[c], win.win_words[c], h, w,
+                    packed = _dense_jit(cap, rows[c], win.win_rows[c], win.win_words[c], h, w,
                                         n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
                                         long_side=self.long_side)
-                per_cam.append(_words_jit(packed, sil[c], win.row0[c], win.word0[c], win.win_rows[c],
-                                          win.win_words[c], n_win_words=sz.win_words,
-                                          n_rows=sz.rows, n_words=sz.words))
+                per_cam.append(_words_jit(packed, rows[c], sil[c], win.row0[c], win.word0[c],
+                                          win.win_rows[c], win.win_words[c], n_win=sz.win_rows,
+                                          n_win_words=sz.win_words, n_rows=sz.rows,
+                                          n_words=sz.words))
             pending.append((start, per_cam))
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
         for start, per_cam in pending:  # everything is dispatched before the first result is read
