@@ -167,37 +167,39 @@ def _bound(xp, c, d, inv_d, t_lo, t_hi):
 
 
 class RowCoeffs(NamedTuple):
-    """What the row-interval solve needs of each capsule (:func:`row_coeffs`), field axes first.
+    """What the row-interval solve needs of each capsule (:func:`row_coeffs`), arrays of the
+    capsules' batch shape (a pytree: JAX maps over its leaves).
 
-    disc : (2, 3, *batch) int32, (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid;
-    edge : (4, 3, *batch) int32, (ex, n0, d) of each quad edge: on fixed-point row ``y`` the edge's
+    disc : 2 x (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid, int32;
+    edge : 4 x (ex, n0, d) of the quad's edges, int32: on fixed-point row ``y`` the edge's
         half-plane holds the columns j with ``d j <= ex y + n0`` (``d = Q ey``);
-    inv_d : (4, *batch) float32, 1/d of each edge (1 where d = 0);  quad_on, drawn : (*batch) bool.
+    inv_d : 4 x 1/d, float32 (1 where d = 0);  quad_on, drawn : bool.
 
     Computed once per capsule, not once per row: XLA fuses such per-capsule work into the row loop
-    and, when the particle axis is the loop's innermost one, recomputes it for every row.
+    and, when the particle axis is the loop's innermost one, recomputes it for every row. Tuples,
+    not stacked arrays: the NumPy baseline calls this per capsule, and stacks would cost it time.
     """
 
-    disc: jnp.ndarray
-    edge: jnp.ndarray
-    inv_d: jnp.ndarray
+    disc: tuple
+    edge: tuple
+    inv_d: tuple
     quad_on: jnp.ndarray
     drawn: jnp.ndarray
 
 
 def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
     """:class:`QuantCaps` (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
-    disc = xp.stack([xp.stack([qc.disc[..., k, 0], qc.disc[..., k, 1],
-                               qc.disc[..., k, 2] * qc.disc[..., k, 2]]) for k in range(2)])
+    disc = tuple((qc.disc[..., k, 0], qc.disc[..., k, 1], qc.disc[..., k, 2] * qc.disc[..., k, 2])
+                 for k in range(2))
     edges, inv_d = [], []
     for k in range(4):
         a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
         ax, ay = a[..., 0], a[..., 1]
         ex, ey = b[..., 0] - ax, b[..., 1] - ay
         d = ey * q
-        edges.append(xp.stack([ex, ey * ax - ex * ay, d]))
+        edges.append((ex, ey * ax - ex * ay, d))
         inv_d.append(np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32))
-    return RowCoeffs(disc, xp.stack(edges), xp.stack(inv_d), qc.quad_on, qc.drawn)
+    return RowCoeffs(disc, tuple(edges), tuple(inv_d), qc.quad_on, qc.drawn)
 
 
 def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
@@ -212,7 +214,7 @@ def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
     lo = xp.full(shape, _FAR, xp.int32)
     hi = xp.full(shape, -_FAR, xp.int32)
     for k in range(2):
-        cx, cy, rr = (at(rc.disc[k, i]) for i in range(3))
+        cx, cy, rr = (at(a) for a in rc.disc[k])
         dy = xp.clip(py - cy, -_BIG, _BIG)
         m = rr - dy * dy
         s = _isqrt(xp, xp.maximum(m, 0))
@@ -227,7 +229,7 @@ def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
     q_ok = xp.broadcast_to(at(rc.quad_on), shape)
     j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
     for k in range(4):
-        ex, n0, d = (at(rc.edge[k, i]) for i in range(3))
+        ex, n0, d = (at(a) for a in rc.edge[k])
         n = ex * py + n0
         j = _bound(xp, n, d, at(rc.inv_d[k]), j_lo, j_hi)
         q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
@@ -309,7 +311,7 @@ def list_intervals(rc: RowCoeffs, rows: RowList, q: int, height, width):
     coefficients are one contiguous row of each (S, B) field (the gather fuses into the loop);
     they are read, not recomputed (measured: docs/benchmarks.md).
     """
-    entry = RowCoeffs(*(jnp.take(a, rows.seg, axis=-2) for a in rc))  # batch (T, B)
+    entry = jax.tree.map(lambda a: jnp.take(a, rows.seg, axis=-2), rc)  # batch (T, B)
     lo, hi = solve_rows(entry, (rows.row * q)[:, None], q, width, lambda a: a)
     return pack_intervals(lo, hi, rows.row[:, None], height, width)
 
@@ -318,7 +320,7 @@ def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, w
     """Scanline kernel, stage 1, one capsule set: (S, 15) records -> (S, R) packed intervals on
     each capsule's window (:func:`list_intervals` with one particle)."""
     rc = row_coeffs(jnp, quantize(jnp, caps, q, long_side), q)
-    one = RowCoeffs(*(a[..., None] for a in rc))
+    one = jax.tree.map(lambda a: a[..., None], rc)
     return list_intervals(one, window_list(win_rows, n_win), q, height, width).reshape(-1, n_win)
 
 

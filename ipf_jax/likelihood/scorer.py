@@ -55,7 +55,6 @@ from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from .raster import (
     WORD,
     Roi,
-    RowCoeffs,
     RowList,
     batch_words,
     dense_interval_stage,
@@ -178,7 +177,7 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     if not scan_q:
         return tuple(caps[c] for c in range(caps.shape[0])), union
     rc = row_coeffs(jnp, quantize(jnp, by_seg, scan_q, long_side), scan_q)  # batch (C, S, B)
-    per_cam = tuple(RowCoeffs(*(a[..., c, :, :] for a in rc)) for c in range(caps.shape[0]))
+    per_cam = tuple(jax.tree.map(lambda a, c=c: a[c], rc) for c in range(caps.shape[0]))
     return per_cam, union
 
 
