@@ -15,18 +15,23 @@ changes nothing; it keeps fixed-point slivers between parts from splitting a row
 Work is restricted to windows. Each capsule ``s`` is rasterised on a window of ``R`` rows starting
 at ``win_rows[s]`` and ``Wd`` 32-bit words starting at ``win_words[s]``; the windows must hold every
 in-image pixel of the capsule (:func:`segment_extent` bounds them) and then the counts do not depend
-on where they are. Two kernels give each capsule's row intervals on its window:
+on where they are. Two kernels give the row intervals:
 
-* :func:`interval_stage` (scanline) solves each part's row interval exactly (integer square root
-  and floor division done as a float estimate plus one exact integer check): O(rows x segments);
+* :func:`list_intervals` (scanline) solves each part's row interval exactly (integer square root
+  and floor division done as a float estimate plus one exact integer check) on the rows of a
+  :class:`RowList`, each capsule's own rows of its window: O(rows x segments);
 * :func:`dense_interval_stage` tests every window pixel against every part: O(pixels x segments).
 
-:func:`word_stage` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
+:func:`batch_words` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
 windows into one grid (the union), ANDs it with the mask's words and counts with
 ``population_count``. :mod:`ipf_jax.reference.raster` does the dense test on the whole image in
-NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy.
+NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy (both call
+:func:`row_intervals` / :func:`solve_rows`, the same integer code).
 
-The JAX kernels are written for ONE capsule set (one particle, one camera); callers vmap.
+The scanline kernels take a batch of particles on the LAST axis (the row loops then vectorise over
+whole particle vectors; with rows innermost they took 1.5-2x longer: docs/benchmarks.md);
+:func:`interval_stage`, :func:`word_stage`, :func:`dense_interval_stage` and the ``*_counts`` are
+their one-capsule-set forms (one particle, one camera), which callers vmap.
 """
 from __future__ import annotations
 

@@ -17,18 +17,21 @@ Definitions (also in docs/formats.md):
 because fused into one program XLA recomputes the row intervals once per word:
 
 1. geometry (all cameras, one batched program with the particle axis last): FK of the distinct
-   capsule ends, all of them projected into all cameras in one step, capsule records (15, S, B)
-   per camera, and each capsule's extent in each camera, reduced over the chunk
-   (:func:`ipf_jax.likelihood.raster.segment_extent`);
-2. row intervals of every capsule on its window (one camera per call);
+   capsule ends, all of them projected into all cameras in one step, each capsule's quantised
+   row coefficients per camera (:class:`~ipf_jax.likelihood.raster.RowCoeffs`, batch (S, B); the
+   dense kernel gets the records (15, S, B)), and each capsule's extent in each camera, reduced
+   over the chunk (:func:`ipf_jax.likelihood.raster.segment_extent`);
+2. row intervals of the camera's row list, each capsule's own rows of its window (one camera per
+   call; (T, B));
 3. bit words, union, AND with the mask, popcount (one camera per call).
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
-capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, and a
-union grid per camera holding all windows. Their sizes are static, from fixed ladders of buckets
-that grow within a frame, shrink after :data:`SHRINK_FRAMES` frames of smaller needs
-(:meth:`Scorer.new_frame`) and are forgotten after a wide search (:meth:`Scorer.reset_windows`), so
-a run compiles a handful of shapes; their offsets are data. Only the
+capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, a
+union grid per camera holding all windows, and the row list (:func:`row_list`). Their sizes are
+static, from fixed ladders of buckets that grow within a frame, shrink after
+:data:`SHRINK_FRAMES` frames of smaller needs (:meth:`Scorer.new_frame`) and are forgotten after a
+wide search (:meth:`Scorer.reset_windows`), so a run compiles a handful of shapes; their offsets
+are data. Only the
 model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
 (possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
 extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
@@ -261,7 +264,8 @@ def row_list(win_rows: np.ndarray, count: np.ndarray, n_win: int, n_list: int) -
     if len(seg) == 0:
         seg, row = np.zeros(1, np.int64), win_rows[:1]
     pad = n_list - len(seg)
-    seg, row = np.concatenate([seg, np.repeat(seg[-1:], pad)]), np.concatenate([row, np.repeat(row[-1:], pad)])
+    seg = np.concatenate([seg, np.repeat(seg[-1:], pad)])
+    row = np.concatenate([row, np.repeat(row[-1:], pad)])
     return RowList(seg.astype(np.int32), row.astype(np.int32), first.astype(np.int32),
                    count.astype(np.int32))
 
