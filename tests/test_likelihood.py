@@ -119,7 +119,7 @@ def test_windows_hold_every_capsule(scene):
     scorer = Scorer(cams, SHAPE, U, chunk=16)
     _, ext = scorer.geometry(particles)
     win = scorer.plan(ext)
-    n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*scorer.sizes))
+    n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in list(zip(*scorer.sizes))[:4])
     h, w = scorer.heights[:, None], scorer.widths[:, None]
     seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
     top, bottom = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
@@ -131,6 +131,16 @@ def test_windows_hold_every_capsule(scene):
     assert np.all((word0 <= win.win_words) & (win.win_words + n_win_words <= word0 + n_words))
     assert np.all(row0 + n_rows <= scorer.h_pad) and np.all(word0 + n_words <= scorer.w_words)
     assert np.all(n_win < n_rows)  # the windows are smaller than the model's box
+    # the row list: each capsule's entries are its window's rows down to its last, in order
+    for c, rows in enumerate(win.rows):
+        sz = scorer.sizes[c]
+        assert len(rows.seg) == len(rows.row) == sz.list_rows
+        assert np.all(rows.first + sz.win_rows <= sz.list_rows) and np.all(rows.count <= sz.win_rows)
+        for s in range(len(rows.first)):
+            k = slice(rows.first[s], rows.first[s] + rows.count[s])
+            assert np.all(rows.seg[k] == s)
+            np.testing.assert_array_equal(rows.row[k], win.win_rows[c, s] + np.arange(rows.count[s]))
+            assert not seen[c, s] or win.win_rows[c, s] + rows.count[s] - 1 >= bottom[c, s]
 
 
 def test_no_retrace_across_frames(scene):
@@ -142,9 +152,9 @@ def test_no_retrace_across_frames(scene):
     cams, q, masks, particles = scene
     scorer = Scorer(cams, SHAPE, U, chunk=16)
     scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
-    stages = {"_geometry_jit": ("_geometry_impl", ("long_side",)),
-              "_intervals_jit": ("_intervals_impl", ("n_win", "q", "long_side")),
-              "_words_jit": ("_words_impl", ("n_win_words", "n_rows", "n_words"))}
+    stages = {"_geometry_jit": ("_geometry_impl", ("long_side", "scan_q")),
+              "_intervals_jit": ("_intervals_impl", ("q",)),
+              "_words_jit": ("_words_impl", ("n_win", "n_win_words", "n_rows", "n_words"))}
     saved = {name: getattr(likelihood, name) for name in stages}
     try:
         for name, (impl, static) in stages.items():

@@ -26,7 +26,7 @@ caps, _ = split.geometry(particles)
 print(json.dumps({
     "devices": len(jax.devices()),
     "chunk": split.chunk,
-    "spread": len(caps[0][0].sharding.device_set),
+    "spread": len(jax.tree.leaves(caps[0][0])[0].sharding.device_set),
     "equal": bool(np.array_equal(split.counts(particles, obs), alone.counts(particles, obs))),
 }))
 """

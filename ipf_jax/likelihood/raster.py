@@ -15,18 +15,23 @@ changes nothing; it keeps fixed-point slivers between parts from splitting a row
 Work is restricted to windows. Each capsule ``s`` is rasterised on a window of ``R`` rows starting
 at ``win_rows[s]`` and ``Wd`` 32-bit words starting at ``win_words[s]``; the windows must hold every
 in-image pixel of the capsule (:func:`segment_extent` bounds them) and then the counts do not depend
-on where they are. Two kernels give each capsule's row intervals on its window:
+on where they are. Two kernels give the row intervals:
 
-* :func:`interval_stage` (scanline) solves each part's row interval exactly (integer square root
-  and floor division done as a float estimate plus one exact integer check): O(rows x segments);
+* :func:`list_intervals` (scanline) solves each part's row interval exactly (integer square root
+  and floor division done as a float estimate plus one exact integer check) on the rows of a
+  :class:`RowList`, each capsule's own rows of its window: O(rows x segments);
 * :func:`dense_interval_stage` tests every window pixel against every part: O(pixels x segments).
 
-:func:`word_stage` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
+:func:`batch_words` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
 windows into one grid (the union), ANDs it with the mask's words and counts with
 ``population_count``. :mod:`ipf_jax.reference.raster` does the dense test on the whole image in
-NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy.
+NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy (both call
+:func:`row_intervals` / :func:`solve_rows`, the same integer code).
 
-The JAX kernels are written for ONE capsule set (one particle, one camera); callers vmap.
+The scanline kernels take a batch of particles on the LAST axis (the row loops then vectorise over
+whole particle vectors; with rows innermost they took 1.5-2x longer: docs/benchmarks.md);
+:func:`interval_stage`, :func:`word_stage`, :func:`dense_interval_stage` and the ``*_counts`` are
+their one-capsule-set forms (one particle, one camera), which callers vmap.
 """
 from __future__ import annotations
 
@@ -166,6 +171,84 @@ def _bound(xp, c, d, inv_d, t_lo, t_hi):
     return xp.where(ok, n, n - xp.sign(d))
 
 
+class RowCoeffs(NamedTuple):
+    """What the row-interval solve needs of each capsule (:func:`row_coeffs`), arrays of the
+    capsules' batch shape (a pytree: JAX maps over its leaves).
+
+    disc : 2 x (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid, int32;
+    edge : 4 x (ex, n0, d) of the quad's edges, int32: on fixed-point row ``y`` the edge's
+        half-plane holds the columns j with ``d j <= ex y + n0`` (``d = Q ey``);
+    inv_d : 4 x 1/d, float32 (1 where d = 0);  quad_on, drawn : bool.
+
+    Computed once per capsule, not once per row: XLA fuses such per-capsule work into the row loop
+    and, when the particle axis is the loop's innermost one, recomputes it for every row. Tuples,
+    not stacked arrays: the NumPy baseline calls this per capsule, and stacks would cost it time.
+    """
+
+    disc: tuple
+    edge: tuple
+    inv_d: tuple
+    quad_on: jnp.ndarray
+    drawn: jnp.ndarray
+
+
+def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
+    """:class:`QuantCaps` (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
+    disc = tuple((qc.disc[..., k, 0], qc.disc[..., k, 1], qc.disc[..., k, 2] * qc.disc[..., k, 2])
+                 for k in range(2))
+    edges, inv_d = [], []
+    for k in range(4):
+        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
+        ax, ay = a[..., 0], a[..., 1]
+        ex, ey = b[..., 0] - ax, b[..., 1] - ay
+        d = ey * q
+        edges.append((ex, ey * ax - ex * ay, d))
+        inv_d.append(np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32))
+    return RowCoeffs(disc, tuple(edges), tuple(inv_d), qc.quad_on, qc.drawn)
+
+
+def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
+    """Exact column interval of every capsule on fixed-point rows ``py`` (row-convex fill).
+
+    ``at`` maps a per-capsule array (shape ``rc.drawn.shape``) to one that broadcasts against
+    ``py`` (e.g. ``a[..., None]`` with rows last, ``a[:, None, :]`` with particles last). Returns
+    lo, hi of the broadcast shape, int32, clipped to [-1, width] (empty when lo > hi).
+    """
+    shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
+    shape = xp.broadcast_shapes(py.shape, at(rc.drawn).shape)
+    lo = xp.full(shape, _FAR, xp.int32)
+    hi = xp.full(shape, -_FAR, xp.int32)
+    for k in range(2):
+        cx, cy, rr = (at(a) for a in rc.disc[k])
+        dy = xp.clip(py - cy, -_BIG, _BIG)
+        m = rr - dy * dy
+        s = _isqrt(xp, xp.maximum(m, 0))
+        d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
+        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
+        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
+        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
+    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
+    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
+    q_lo = xp.full(shape, -_FAR, xp.int32)
+    q_hi = xp.full(shape, _FAR, xp.int32)
+    q_ok = xp.broadcast_to(at(rc.quad_on), shape)
+    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
+    for k in range(4):
+        ex, n0, d = (at(a) for a in rc.edge[k])
+        n = ex * py + n0
+        j = _bound(xp, n, d, at(rc.inv_d[k]), j_lo, j_hi)
+        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
+        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
+        q_ok = q_ok & ((d != 0) | (n >= 0))
+    q_ok = q_ok & (q_lo <= q_hi)
+    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
+    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
+    drawn = at(rc.drawn)
+    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
+    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
+    return lo, hi
+
+
 def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
     """Exact column interval of every capsule on every row (row-convex fill of its parts).
 
@@ -176,43 +259,8 @@ def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
     keeps quantisation slivers from splitting a row. ``xp`` is the array namespace (NumPy for the
     vectorised NumPy baseline, which adds leading particle axes).
     """
-    shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
     py = (rows if rows.ndim == qc.drawn.ndim + 1 else rows[..., None, :]) * q  # (..., S or 1, R)
-    shape = xp.broadcast_shapes(py.shape, qc.drawn.shape + (1,))
-    lo = xp.full(shape, _FAR, xp.int32)
-    hi = xp.full(shape, -_FAR, xp.int32)
-    for k in range(2):
-        cx, cy, r = (qc.disc[..., k, i][..., None] for i in range(3))  # (..., S, 1)
-        dy = xp.clip(py - cy, -_BIG, _BIG)
-        m = r * r - dy * dy
-        s = _isqrt(xp, xp.maximum(m, 0))
-        d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
-        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
-        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
-        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
-    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
-    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
-    q_lo = xp.full(shape, -_FAR, xp.int32)
-    q_hi = xp.full(shape, _FAR, xp.int32)
-    q_ok = xp.broadcast_to(qc.quad_on[..., None], shape)
-    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
-    for k in range(4):
-        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
-        ax, ay = a[..., 0:1], a[..., 1:2]
-        ex, ey = b[..., 0:1] - ax, b[..., 1:2] - ay  # (..., S, 1)
-        n = ex * py + (ey * ax - ex * ay)  # (..., S, R)
-        d = ey * q
-        j = _bound(xp, n, d, np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32), j_lo, j_hi)
-        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
-        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
-        q_ok = q_ok & ((d != 0) | (n >= 0))
-    q_ok = q_ok & (q_lo <= q_hi)
-    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
-    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
-    drawn = qc.drawn[..., None]
-    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
-    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
-    return lo, hi
+    return solve_rows(row_coeffs(xp, qc, q), py, q, width, lambda a: a[..., None], xp)
 
 
 def pack_intervals(lo, hi, rows, height, width, xp=jnp):
@@ -235,14 +283,50 @@ def _window_rows(win_rows, n_win: int, xp=jnp):
     return win_rows[..., None] + xp.arange(n_win, dtype=xp.int32)
 
 
-def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
-    """Scanline kernel, stage 1: (S, 15) records -> (S, R) packed intervals on each window.
+class RowList(NamedTuple):
+    """The rows stage 1 solves, as one list shared by the B particles (host or device int32).
 
-    win_rows : (S,) int32 first row of each capsule's window;  n_win : R (static).
+    seg, row : (T,) the capsule and the image row of each entry; capsule ``s``'s entries are
+    ``first[s] .. first[s] + count[s] - 1``, the rows ``win_rows[s] ..`` of its window in order
+    (``count[s] <= R``, 0 for a capsule seen nowhere), and ``first[s] + R <= T``. Unlike windows of
+    R rows for every capsule, the list holds each capsule's own rows: 1.5-1.8x fewer on the bench
+    scene, where the capsule seen over the tallest spread sets R.
     """
-    rows = _window_rows(win_rows, n_win)
-    lo, hi = row_intervals(quantize(jnp, caps, q, long_side), rows, q, width)
-    return pack_intervals(lo, hi, rows, height, width)
+
+    seg: jnp.ndarray
+    row: jnp.ndarray
+    first: jnp.ndarray
+    count: jnp.ndarray
+
+
+def window_list(win_rows, n_win: int, xp=jnp) -> RowList:
+    """The list of whole windows: R rows for each of the S capsules (T = S R)."""
+    n_seg = win_rows.shape[0]
+    seg = xp.repeat(xp.arange(n_seg, dtype=xp.int32), n_win)
+    first = xp.arange(n_seg, dtype=xp.int32) * n_win
+    return RowList(seg, _window_rows(win_rows, n_win, xp).reshape(-1), first,
+                   xp.full((n_seg,), n_win, xp.int32))
+
+
+def list_intervals(rc: RowCoeffs, rows: RowList, q: int, height, width):
+    """Scanline kernel, stage 1, particle axis last: :class:`RowCoeffs` of batch (S, B) -> (T, B)
+    packed intervals of the list's rows.
+
+    Particles last, the row loop vectorises over particles without a tail, and each entry's
+    coefficients are one contiguous row of each (S, B) field (the gather fuses into the loop);
+    they are read, not recomputed (measured: docs/benchmarks.md).
+    """
+    entry = jax.tree.map(lambda a: jnp.take(a, rows.seg, axis=-2), rc)  # batch (T, B)
+    lo, hi = solve_rows(entry, (rows.row * q)[:, None], q, width, lambda a: a)
+    return pack_intervals(lo, hi, rows.row[:, None], height, width)
+
+
+def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
+    """Scanline kernel, stage 1, one capsule set: (S, 15) records -> (S, R) packed intervals on
+    each capsule's window (:func:`list_intervals` with one particle)."""
+    rc = row_coeffs(jnp, quantize(jnp, caps, q, long_side), q)
+    one = jax.tree.map(lambda a: a[..., None], rc)
+    return list_intervals(one, window_list(win_rows, n_win), q, height, width).reshape(-1, n_win)
 
 
 def parts_inside(qc: QuantCaps, px, py, xp=jnp):
@@ -305,35 +389,60 @@ class Roi(NamedTuple):
     word0: jnp.ndarray
 
 
-def window_bits(packed, win_words, n_win_words: int):
-    """(S, R) packed intervals -> (S, Wd, R) uint32 bit words of each capsule's window."""
+#: A packed interval holding no column (:func:`pack_intervals` of lo = 0, hi = -1).
+EMPTY = 1 << 12
+
+
+def window_bits(packed, win_word, n_win_words: int):
+    """(R, B) packed intervals of one capsule's window -> (Wd, R, B) uint32 bit words."""
     lo, hi = unpack_intervals(packed)
-    base = ((win_words[:, None] + jnp.arange(n_win_words, dtype=jnp.int32)) * WORD)[:, :, None]
-    a = jnp.clip(lo[:, None, :] - base, 0, WORD)
-    b = jnp.clip(hi[:, None, :] + 1 - base, 0, WORD)
+    base = ((win_word + jnp.arange(n_win_words, dtype=jnp.int32)) * WORD)[:, None, None]
+    a = jnp.clip(lo[None] - base, 0, WORD)
+    b = jnp.clip(hi[None] + 1 - base, 0, WORD)
     return _bits_between(a, jnp.maximum(a, b))
+
+
+def batch_words(packed, rows: RowList, sil_words, roi: Roi, win_rows, win_words, n_win: int,
+                n_win_words: int, n_rows: int, n_words: int):
+    """Stage 2, particle axis last: (T, B) packed intervals of a :class:`RowList` -> (Nc, Nm_total),
+    each (B,) int32, against one bit-packed mask.
+
+    Each capsule's R x Wd window of bit words (its list entries, the rest of the window empty) is
+    ORed into the union grid (words, rows, particles), ANDed with the mask's words and counted with
+    ``population_count``. The window offsets are shared by all particles, so every update is a
+    plain dynamic slice whose innermost axis, the particles, is whole: the loops vectorise without
+    tails or unaligned starts (with rows innermost this stage took twice as long:
+    docs/benchmarks.md).
+    """
+    held = jnp.arange(n_win, dtype=jnp.int32)[:, None]
+
+    def add(s, grid):  # one in-place update per capsule
+        window = jax.lax.dynamic_slice_in_dim(packed, rows.first[s], n_win)  # (R, B)
+        bits = window_bits(jnp.where(held < rows.count[s], window, EMPTY), win_words[s],
+                           n_win_words)
+        pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0, 0)
+        old = jax.lax.dynamic_slice(grid, pos, bits.shape)
+        return jax.lax.dynamic_update_slice(grid, old | bits, pos)
+
+    # a loop, not unrolled: the offsets are data either way, and one body compiles about 3x faster
+    grid = jax.lax.fori_loop(0, win_rows.shape[0], add,
+                             jnp.zeros((n_words, n_rows, packed.shape[-1]), jnp.uint32))
+    sil = jax.lax.dynamic_slice(sil_words, (roi.row0, roi.word0), (n_rows, n_words)).T[..., None]
+    # both counts in one pass: per row they stay below 2**16 (at most 64 words of 32 bits)
+    both = (jax.lax.population_count(grid & sil).astype(jnp.int32)
+            + (jax.lax.population_count(grid).astype(jnp.int32) << 16))
+    per_row = jnp.sum(both, axis=0)  # (rows, B)
+    return jnp.sum(per_row & 0xFFFF, axis=0), jnp.sum(per_row >> 16, axis=0)
 
 
 def word_stage(packed, sil_words, roi: Roi, win_rows, win_words, n_win_words: int, n_rows: int,
                n_words: int):
-    """Stage 2: (S, R) packed intervals -> (Nc, Nm_total) int32 against one bit-packed mask.
-
-    Each capsule's window of bit words is ORed into the union grid (rows minor, so the loops
-    vectorise; the window offsets are shared by all particles, so under vmap they stay plain
-    dynamic slices), ANDed with the mask's words and counted with ``population_count``.
-    """
-    bits = window_bits(packed, win_words, n_win_words)
-    grid = jnp.zeros((n_words, n_rows), jnp.uint32)
-    for s in range(bits.shape[0]):  # unrolled: one in-place update per capsule
-        pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0)
-        old = jax.lax.dynamic_slice(grid, pos, bits.shape[1:])
-        grid = jax.lax.dynamic_update_slice(grid, old | bits[s], pos)
-    sil = jax.lax.dynamic_slice(sil_words, (roi.row0, roi.word0), (n_rows, n_words)).T
-    # both counts in one pass: per row they stay below 2**16 (at most 64 words of 32 bits)
-    both = (jax.lax.population_count(grid & sil).astype(jnp.int32)
-            + (jax.lax.population_count(grid).astype(jnp.int32) << 16))
-    per_row = jnp.sum(both, axis=0)  # (rows,)
-    return jnp.sum(per_row & 0xFFFF), jnp.sum(per_row >> 16)
+    """Stage 2, one capsule set: (S, R) packed intervals on each capsule's window -> (Nc, Nm_total)
+    int32 scalars (:func:`batch_words` with one particle)."""
+    n_win = packed.shape[1]
+    nc, nm = batch_words(packed.reshape(-1, 1), window_list(win_rows, n_win), sil_words, roi,
+                         win_rows, win_words, n_win, n_win_words, n_rows, n_words)
+    return nc[0], nm[0]
 
 
 def _whole_roi(caps, roi: Roi):

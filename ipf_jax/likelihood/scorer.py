@@ -17,18 +17,21 @@ Definitions (also in docs/formats.md):
 because fused into one program XLA recomputes the row intervals once per word:
 
 1. geometry (all cameras, one batched program with the particle axis last): FK of the distinct
-   capsule ends, all of them projected into all cameras in one step, capsule records (15, S, B)
-   per camera, and each capsule's extent in each camera, reduced over the chunk
-   (:func:`ipf_jax.likelihood.raster.segment_extent`);
-2. row intervals of every capsule on its window (one camera per call);
+   capsule ends, all of them projected into all cameras in one step, each capsule's quantised
+   row coefficients per camera (:class:`~ipf_jax.likelihood.raster.RowCoeffs`, batch (S, B); the
+   dense kernel gets the records (15, S, B)), and each capsule's extent in each camera, reduced
+   over the chunk (:func:`ipf_jax.likelihood.raster.segment_extent`);
+2. row intervals of the camera's row list, each capsule's own rows of its window (one camera per
+   call; (T, B));
 3. bit words, union, AND with the mask, popcount (one camera per call).
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
-capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, and a
-union grid per camera holding all windows. Their sizes are static, from fixed ladders of buckets
-that grow within a frame, shrink after :data:`SHRINK_FRAMES` frames of smaller needs
-(:meth:`Scorer.new_frame`) and are forgotten after a wide search (:meth:`Scorer.reset_windows`), so
-a run compiles a handful of shapes; their offsets are data. Only the
+capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, a
+union grid per camera holding all windows, and the row list (:func:`row_list`). Their sizes are
+static, from fixed ladders of buckets that grow within a frame, shrink after
+:data:`SHRINK_FRAMES` frames of smaller needs (:meth:`Scorer.new_frame`) and are forgotten after a
+wide search (:meth:`Scorer.reset_windows`), so a run compiles a handful of shapes; their offsets
+are data. Only the
 model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
 (possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
 extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
@@ -55,12 +58,15 @@ from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from .raster import (
     WORD,
     Roi,
+    RowList,
+    batch_words,
     dense_interval_stage,
-    interval_stage,
+    list_intervals,
     pack_rows,
     quant_scale,
+    quantize,
+    row_coeffs,
     segment_extent,
-    word_stage,
 )
 
 KERNELS = ("scanline", "dense")
@@ -154,51 +160,79 @@ def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
 
 
 # -- the compiled stages (B particles; batched here, once) --------------------------------------
-def _geometry_impl(q, shape_values, up, cams, long_side):
-    """Stage 1: (B, D) particles -> C arrays (15, S, B) of capsule records, one per camera, and
-    (C, S, 4) float32 extents of each capsule over the chunk (row_min, row_max, col_min, col_max).
+def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
+    """Stage 1: (B, D) particles -> C records, one per camera, and (C, S, 4) float32 extents of
+    each capsule over the chunk (row_min, row_max, col_min, col_max).
+
+    The records are (15, S, B) capsule records, or with ``scan_q`` (the scanline kernel's
+    fixed-point scale; 0: records) each capsule's :class:`~ipf_jax.likelihood.raster.RowCoeffs`
+    (batch (S, B)): a program's outputs are materialised, so the rows of stage 2 read them instead
+    of recomputing the quantisation per row (computed in stage 2, XLA fused it into the row loop
+    even behind an ``optimization_barrier``).
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
-    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))
-    ext = segment_extent(jnp, jnp.moveaxis(caps, 1, -1), long_side)  # (C, S, B, 4)
+    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))  # (C, 15, S, B)
+    by_seg = jnp.moveaxis(caps, 1, -1)  # (C, S, B, 15)
+    ext = segment_extent(jnp, by_seg, long_side)  # (C, S, B, 4)
     union = jnp.stack([ext[..., 0].min(2), ext[..., 1].max(2), ext[..., 2].min(2),
                        ext[..., 3].max(2)], -1)
-    return tuple(caps[c] for c in range(caps.shape[0])), union
+    if not scan_q:
+        return tuple(caps[c] for c in range(caps.shape[0])), union
+    rc = row_coeffs(jnp, quantize(jnp, by_seg, scan_q, long_side), scan_q)  # batch (C, S, B)
+    per_cam = tuple(jax.tree.map(lambda a, c=c: a[c], rc) for c in range(caps.shape[0]))
+    return per_cam, union
 
 
-def _intervals_impl(caps, win_rows, height, width, n_win, q, long_side):
-    """Stage 2 (scanline), one camera: (15, S, B) records -> (B, S, R) packed row intervals."""
-    return jax.vmap(lambda c: interval_stage(c.T, win_rows, n_win, q, long_side, height, width),
-                    in_axes=2)(caps)
+def _intervals_impl(rc, rows, height, width, q):
+    """Stage 2 (scanline), one camera: RowCoeffs of batch (S, B) -> (T, B) packed intervals of
+    the :class:`~ipf_jax.likelihood.raster.RowList` ``rows``."""
+    return list_intervals(rc, rows, q, height, width)
 
 
-def _dense_impl(caps, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
-    """Stage 2 (dense), one camera: the same packed intervals by per-pixel tests."""
-    return jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words, q,
-                                                   long_side, height, width), in_axes=2)(caps)
+def _dense_impl(caps, rows, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
+    """Stage 2 (dense), one camera: the same (T, B) packed intervals by per-pixel tests on each
+    capsule's window, then picked in the list's order."""
+    packed = jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words,
+                                                     q, long_side, height, width),
+                      in_axes=2, out_axes=2)(caps)  # (S, R, B)
+    return packed[rows.seg, rows.row - win_rows[rows.seg]]
 
 
-def _words_impl(packed, sil_words, row0, word0, win_rows, win_words, n_win_words, n_rows, n_words):
-    """Stage 3, one camera: (B, S, R) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
-    roi = Roi(row0, word0)
-    return jax.vmap(lambda p: jnp.stack(word_stage(p, sil_words, roi, win_rows, win_words,
-                                                   n_win_words, n_rows, n_words)))(packed)
+def _words_impl(packed, rows, sil_words, row0, word0, win_rows, win_words, n_win, n_win_words,
+                n_rows, n_words):
+    """Stage 3, one camera: (T, B) packed intervals -> (B, 2) int32 (Nc, Nm_total)."""
+    return jnp.stack(batch_words(packed, rows, sil_words, Roi(row0, word0), win_rows, win_words,
+                                 n_win, n_win_words, n_rows, n_words), -1)
 
 
-_geometry_jit = jax.jit(_geometry_impl, static_argnames=("long_side",))
-_intervals_jit = jax.jit(_intervals_impl, static_argnames=("n_win", "q", "long_side"))
-_dense_jit = jax.jit(_dense_impl, static_argnames=("n_win", "n_win_words", "q", "long_side"))
-_words_jit = jax.jit(_words_impl, static_argnames=("n_win_words", "n_rows", "n_words"))
+#: XLA options of the stages' programs. XLA's CPU backend prefers 256-bit vectors unless told;
+#: the stages are loops over a whole particle axis, which 512-bit vectors run 1.15-1.4x faster
+#: where the CPU has them (measured: docs/benchmarks.md). CPUs without them, and other backends,
+#: ignore the option. The raster is exact integer arithmetic at any width; the capsule records
+#: came out bit-identical on the bench scene.
+COMPILER_OPTIONS = {"xla_cpu_prefer_vector_width": "512"}
+
+
+def _compiled(fn, *static):
+    return jax.jit(fn, static_argnames=static, compiler_options=COMPILER_OPTIONS)
+
+
+_geometry_jit = _compiled(_geometry_impl, "long_side", "scan_q")
+_intervals_jit = _compiled(_intervals_impl, "q")
+_dense_jit = _compiled(_dense_impl, "n_win", "n_win_words", "q", "long_side")
+_words_jit = _compiled(_words_impl, "n_win", "n_win_words", "n_rows", "n_words")
 
 
 class Sizes(NamedTuple):
-    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words."""
+    """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words,
+    entries T of the row list."""
 
     win_rows: int
     win_words: int
     rows: int
     words: int
+    list_rows: int
 
 
 class Windows(NamedTuple):
@@ -206,12 +240,39 @@ class Windows(NamedTuple):
 
     row0, word0 : (C,) origin of each camera's union grid.
     win_rows, win_words : (C, S) origin of each capsule's window.
+    rows : C :class:`~ipf_jax.likelihood.raster.RowList`, the rows stage 2 solves in each camera.
     """
 
     row0: np.ndarray
     word0: np.ndarray
     win_rows: np.ndarray
     win_words: np.ndarray
+    rows: tuple
+
+
+def row_list(win_rows: np.ndarray, count: np.ndarray, n_win: int, n_list: int) -> RowList:
+    """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of the first ``count[s]`` rows of each
+    capsule's window (S,), padded to ``n_list`` entries with copies of the last one. The capsule
+    with the most rows goes last, so each capsule's R entries from its first lie in the list with
+    ``list_need(count, n_win) <= n_list`` entries."""
+    order = np.argsort(count, kind="stable")
+    counts = count[order]
+    first = np.zeros(len(count), np.int64)
+    first[order] = np.cumsum(counts) - counts
+    seg = np.repeat(order, counts)
+    row = np.repeat(win_rows[order], counts) + np.arange(len(seg)) - np.repeat(first[order], counts)
+    if len(seg) == 0:
+        seg, row = np.zeros(1, np.int64), win_rows[:1]
+    pad = n_list - len(seg)
+    seg = np.concatenate([seg, np.repeat(seg[-1:], pad)])
+    row = np.concatenate([row, np.repeat(row[-1:], pad)])
+    return RowList(seg.astype(np.int32), row.astype(np.int32), first.astype(np.int32),
+                   count.astype(np.int32))
+
+
+def list_need(count: np.ndarray, n_win: int) -> int:
+    """Entries :func:`row_list` needs: every row counted, then R from the last capsule's first."""
+    return int(count.sum() - count.max() + n_win)
 
 
 def _round_up(n: int, step: int, cap: int) -> int:
@@ -283,6 +344,7 @@ class Scorer:
         self.q = quant_scale(int(self.heights.max()), int(self.widths.max()))
         self.h_pad = int(self.heights.max())
         self.w_words = int(-(-self.widths.max() // WORD))
+        self._list_cap = len(SEGMENT_ENDS) * self.h_pad  # row-list entries: every row of every capsule
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
         self._devices = len(devices)
@@ -329,16 +391,18 @@ class Scorer:
             start += b
 
     # -- stage 1 and the window plan -------------------------------------------------------------
-    def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None):
-        """Stage 1 for every chunk: per-camera capsule records (kept on device) and the (C, S, 4)
-        int64 extent of every capsule over all particles. ``shapes`` (N, P): a body per particle
-        (default: :attr:`shape` for all)."""
+    def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None,
+                 kernel: str | None = None):
+        """Stage 1 for every chunk: per-camera records for ``kernel``'s stage 2 (default the
+        scorer's; kept on device) and the (C, S, 4) int64 extent of every capsule over all
+        particles. ``shapes`` (N, P): a body per particle (default: :attr:`shape` for all)."""
         caps, exts = [], []
         bodies = (self._chunks(shapes) if shapes is not None
                   else itertools.repeat((0, self.shape_values)))
+        scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
         for (_, block), (_, body) in zip(self._chunks(particles), bodies):
             c, ext = _geometry_jit(self._put(block, True), self._put(body, body.ndim == 2), self.up,
-                                   self.cams, long_side=self.long_side)
+                                   self.cams, long_side=self.long_side, scan_q=scan_q)
             caps.append(c)
             exts.append(ext)
         ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
@@ -351,10 +415,12 @@ class Scorer:
         do not fit. ``full``: every window is the whole image (the counts do not depend on it)."""
         n_cam, n_seg = ext.shape[:2]
         if full:
-            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words)] * n_cam
+            n_list = n_seg * self.h_pad
+            self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words, n_list)] * n_cam
             zero = np.zeros(n_cam, np.int32)
+            whole = row_list(np.zeros(n_seg, np.int64), np.full(n_seg, self.h_pad), self.h_pad, n_list)
             return Windows(zero, zero, np.zeros((n_cam, n_seg), np.int32),
-                           np.zeros((n_cam, n_seg), np.int32))
+                           np.zeros((n_cam, n_seg), np.int32), (whole,) * n_cam)
         h, w = self.heights[:, None], self.widths[:, None]
         seen = (ext[..., 0] < h) & (ext[..., 1] >= 0) & (ext[..., 2] < w) & (ext[..., 3] >= 0)
         r_lo, r_hi = np.clip(ext[..., 0], 0, h - 1), np.clip(ext[..., 1], 0, h - 1)
@@ -371,30 +437,39 @@ class Scorer:
         win_r, grid_r, g_row = span(r_lo, r_hi)
         win_w, grid_w, g_word = span(w_lo, w_hi)
         # per camera (a camera nearer the person needs bigger windows); buckets from ladders
-        # (_bucket) that only grow here and shrink in new_frame
-        need = np.stack([win_r, win_w, grid_r, grid_w], 1).astype(np.int64)
-        self._need = need if self._need is None else np.maximum(self._need, need)
-        self.sizes = self._buckets(need, shrink=False)
-        n_win, n_win_words, n_rows, n_words = (np.array(v)[:, None] for v in zip(*self.sizes))
+        # (_bucket) that only grow here and shrink in new_frame; the row list's after the windows
+        need = np.stack([win_r, win_w, grid_r, grid_w, np.zeros_like(win_r)], 1).astype(np.int64)
+        sizes = self._buckets(need, shrink=False)
+        n_win, n_win_words, n_rows, n_words, _ = (np.array(v)[:, None] for v in zip(*sizes))
         row0 = np.minimum(g_row[:, None], self.h_pad - n_rows)
         word0 = np.minimum(g_word[:, None], self.w_words - n_words)
         # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
         win_rows = np.clip(np.where(seen, r_lo, row0), row0, row0 + n_rows - n_win)
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
+        count = np.where(seen, r_hi - win_rows + 1, 0)  # the window's rows down to the capsule's last
+        for c, sz in enumerate(sizes):
+            need[c, 4] = list_need(count[c], sz.win_rows)
+            sizes[c] = sz._replace(list_rows=_bucket(sz.list_rows, int(need[c, 4]), 8,
+                                                     self._list_cap))
+        self._need = need if self._need is None else np.maximum(self._need, need)
+        self.sizes = sizes
+        rows = tuple(row_list(win_rows[c], count[c], sz.win_rows, sz.list_rows)
+                     for c, sz in enumerate(sizes))
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
-                       win_rows.astype(np.int32), win_words.astype(np.int32))
+                       win_rows.astype(np.int32), win_words.astype(np.int32), rows)
 
     def _buckets(self, need: np.ndarray, shrink: bool) -> list[Sizes]:
-        """Per camera, the static sizes holding ``need`` (C, 4): window rows and words, grid rows
-        and words, from fixed ladders (:func:`_bucket`)."""
+        """Per camera, the static sizes holding ``need`` (C, 5): window rows and words, grid rows
+        and words, row-list entries, from fixed ladders (:func:`_bucket`)."""
         sizes = []
-        for c, (win_r, win_w, grid_r, grid_w) in enumerate(need.tolist()):
-            old = self.sizes[c] if self.sizes else Sizes(0, 0, 0, 0)
+        for c, (win_r, win_w, grid_r, grid_w, list_r) in enumerate(need.tolist()):
+            old = self.sizes[c] if self.sizes else Sizes(0, 0, 0, 0, 0)
             n_win = _bucket(old.win_rows, win_r, 8, self.h_pad, shrink)
             n_win_words = _bucket(old.win_words, win_w, 1, self.w_words, shrink)
             n_rows = max(n_win, _bucket(old.rows, grid_r, 16, self.h_pad, shrink))
             n_words = max(n_win_words, _bucket(old.words, grid_w, 2, self.w_words, shrink))
-            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words))
+            n_list = _bucket(old.list_rows, list_r, 8, self._list_cap, shrink)
+            sizes.append(Sizes(n_win, n_win_words, n_rows, n_words, n_list))
         return sizes
 
     def reset_windows(self) -> None:
@@ -420,25 +495,28 @@ class Scorer:
         profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras), then per
         camera ``intervals cam K``, ``words cam K`` and ``dense intervals cam K``. The windows are
         planned for ``particles`` first, as :meth:`counts` does."""
-        caps, ext = self.geometry(particles)
+        caps, ext = self.geometry(particles, kernel="scanline")
+        dense_caps, _ = self.geometry(particles, kernel="dense")
         win = self.plan(ext)
         block = next(self._chunks(np.asarray(particles)))[1]
         out = {"geometry (all cameras)": lambda: _geometry_jit(
-            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side)}
+            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side,
+            scan_q=self.q)}
         for c in range(len(self.cameras)):
-            cap, h, w, sz = caps[0][c], self.heights[c], self.widths[c], self.sizes[c]
+            rc, cap = caps[0][c], dense_caps[0][c]
+            h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
 
-            def intervals(cap=cap, c=c, h=h, w=w, sz=sz):
-                return _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
-                                      long_side=self.long_side)
+            def intervals(rc=rc, c=c, h=h, w=w):
+                return _intervals_jit(rc, win.rows[c], h, w, q=self.q)
 
             packed = intervals()
             out[f"intervals cam {c + 1}"] = intervals
             out[f"words cam {c + 1}"] = lambda packed=packed, c=c, sz=sz: _words_jit(
-                packed, obs.words[c], win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c],
-                n_win_words=sz.win_words, n_rows=sz.rows, n_words=sz.words)
+                packed, win.rows[c], obs.words[c], win.row0[c], win.word0[c], win.win_rows[c],
+                win.win_words[c], n_win=sz.win_rows, n_win_words=sz.win_words, n_rows=sz.rows,
+                n_words=sz.words)
             out[f"dense intervals cam {c + 1}"] = lambda cap=cap, c=c, h=h, w=w, sz=sz: _dense_jit(
-                cap, win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
+                cap, win.rows[c], win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
                 n_win_words=sz.win_words, q=self.q, long_side=self.long_side)
         return out
 
@@ -465,21 +543,22 @@ class Scorer:
         caps, ext = self.geometry(particles, shapes)
         win = self.plan(ext, full=full_roi)
         sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
+        rows = [RowList(*(self._put(a) for a in r)) for r in win.rows]  # sent once, not per chunk
         pending = []
         for (start, _), chunk_caps in zip(self._chunks(particles), caps):
             per_cam = []
             for c, cap in enumerate(chunk_caps):
                 h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
                 if self.kernel == "scanline":
-                    packed = _intervals_jit(cap, win.win_rows[c], h, w, n_win=sz.win_rows, q=self.q,
-                                            long_side=self.long_side)
+                    packed = _intervals_jit(cap, rows[c], h, w, q=self.q)
                 else:
-                    packed = _dense_jit(cap, win.win_rows[c], win.win_words[c], h, w,
+                    packed = _dense_jit(cap, rows[c], win.win_rows[c], win.win_words[c], h, w,
                                         n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
                                         long_side=self.long_side)
-                per_cam.append(_words_jit(packed, sil[c], win.row0[c], win.word0[c], win.win_rows[c],
-                                          win.win_words[c], n_win_words=sz.win_words,
-                                          n_rows=sz.rows, n_words=sz.words))
+                per_cam.append(_words_jit(packed, rows[c], sil[c], win.row0[c], win.word0[c],
+                                          win.win_rows[c], win.win_words[c], n_win=sz.win_rows,
+                                          n_win_words=sz.win_words, n_rows=sz.rows,
+                                          n_words=sz.words))
             pending.append((start, per_cam))
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
         for start, per_cam in pending:  # everything is dispatched before the first result is read
