@@ -98,7 +98,7 @@ def with_legacy_params(params: dict, path: str | Path | None = None, warn: bool 
     """``params`` with the parameters a file written before them lacks (:data:`LEGACY_PARAMS`:
     the values that keep its body as it was), with one warning naming them."""
     added = {n: v for n, v in LEGACY_PARAMS.items() if n not in params}
-    if added and warn and len(added) < len(SHAPE_PARAM_NAMES):
+    if added and warn:
         where = f"{path}: " if path is not None else ""
         warnings.warn(f"{where}a shape written before {', '.join(added)}: "
                       f"{', '.join(f'{n} = {v:g}' for n, v in added.items())} keeps its body as it was "

@@ -249,28 +249,30 @@ class Tracker:
     def frame_key(self, frame: int, salt: int = 0) -> jax.Array:
         return jax.random.fold_in(jax.random.fold_in(self.key, frame), salt)
 
+    def floor_point(self, obs: Observation, small: list[np.ndarray]) -> np.ndarray:
+        """(3,) the floor point under the person seen by the active cameras (the given or the
+        template's height for one camera); IPFError when no camera sees anyone."""
+        active = [i for i in range(len(small)) if obs.active[i]]
+        height = self.settings.height_m or self.base_shape.height_m
+        return floor_points([small[i] for i in active], [self.cameras[i] for i in active],
+                            self.U[:, 2], (height,))[height]
+
     def check_view(self, obs: Observation, small: list[np.ndarray]) -> None:
         """Every camera with a silhouette sees where the person stands (see module doc)."""
         active = [i for i in range(len(small)) if obs.active[i]]
-        height = self.settings.height_m or self.base_shape.height_m
-        foot = floor_points([small[i] for i in active], [self.cameras[i] for i in active],
-                            self.U[:, 2], (height,))[height]
-        check_cameras_see(foot, self.U[:, 2], [self.dataset.cameras[i] for i in active],
-                          [i + 1 for i in active], self.dataset.path)
+        check_cameras_see(self.floor_point(obs, small), self.U[:, 2],
+                          [self.dataset.cameras[i] for i in active], [i + 1 for i in active],
+                          self.dataset.path)
 
     def heading_of_travel(self, frame: int) -> float | None:
         """The direction (rad) the silhouettes' floor point travels from ``frame`` over about a
         second (:mod:`.travel`), or None: standing still, turning, or ``--no-facing-travel``."""
         if not self.settings.facing_travel:
             return None
-        height = self.settings.height_m or self.base_shape.height_m
         points = []
         for f in window_frames(self.frames, frame, self.fps):
-            obs, small = self.observe(f)[:2]
-            active = [i for i in range(len(small)) if obs.active[i]]
             try:
-                points.append(floor_points([small[i] for i in active], [self.cameras[i] for i in active],
-                                           self.U[:, 2], (height,))[height])
+                points.append(self.floor_point(*self.observe(f)[:2]))
             except IPFError:  # nobody seen on that frame: no direction from it
                 continue
         return travel_heading(points, self.U)
