@@ -25,6 +25,8 @@ machine other processes take cores: the CPU-time rate is the one they disturb le
 ``machine``. Tracking records add ``filter``, ``seconds_per_frame``, ``cpu_seconds_per_run`` (process CPU
 time of the whole two-frame run, all threads: an upper bound of the single-threaded cost of frame 1)
 and ``joint_distance_to_peer_m`` (the 12 limb joints against bodytrack's own frame-1 estimate).
+Start records (``task`` "start", :func:`bench_start`) time the one-off stages of a default run
+(automatic initialisation, shape fit, recoveries) apart from its tracked frames.
 """
 from __future__ import annotations
 
@@ -234,6 +236,40 @@ def bench_track(data: Path, filter_name: str, width: int, *, runs: int = 2, seed
         theirs, _ = peer_joints(peer, data / "BodyShapeParameters.txt")
         rec["joint_distance_to_peer_m"] = round(mean_joint_distance(res.joints[1], theirs[1]), 4)
     return rec
+
+
+def bench_start(data: Path, frames: int = 12, *, seed: int = 0, progress: bool = False) -> dict:
+    """The one-off stages of a default run on ``data``'s first ``frames`` frames, apart from its
+    tracked frames: the automatic initialisation, the shape fit and any recovery (evaluations and
+    seconds each, from ``run.json``), then the tracked frames' mean and median seconds.
+
+    A first run of a dataset in a process: the times include compiling (or loading from the
+    persistent cache) the programs of each stage's window sizes, as a user's first run does.
+    """
+    from .data.dataset import open_dataset
+    from .tracking.tracker import TrackSettings, track
+
+    ds = open_dataset(data)
+    load = _load_average()
+    with tempfile.TemporaryDirectory() as out:
+        res = track(ds, out, TrackSettings(seed=seed, checkpoint_every=1000),
+                    frames=ds.frames[:frames], progress=progress)
+    run = res.run
+    sec = run["seconds"]
+    tracked = [r["seconds"] for r in run["per_frame"] if r["status"] == "tracked"]
+    scoring = run["settings"]["scoring_sizes"][0]
+    return {"task": "start", "dataset": str(data), "filter": run["filter"],
+            "cameras": len(ds.cameras), "width": scoring[0], "height": scoring[1],
+            "frames": len(run["per_frame"]), "seconds_total": sec["total"],
+            "initialisation": {"evaluations": run["init_evaluations"] - run["recovery"]["evaluations"],
+                               "seconds": sec["initialisation"]},
+            "shape_fit": {"evaluations": run["shape_fit_evaluations"], "seconds": sec["shape_fit"]},
+            "recovery": {"attempts": run["recovery"]["attempts"],
+                         "evaluations": run["recovery"]["evaluations"], "seconds": sec["recovery"]},
+            "tracked_frames": {"count": len(tracked), "evaluations_per_frame": run["evaluations_per_frame"],
+                               "seconds_mean": round(float(np.mean(tracked)), 4) if tracked else None,
+                               "seconds_median": round(float(np.median(tracked)), 4) if tracked else None},
+            "peak_rss_mb": round(_peak_mb(), 1), "load_average": load, **_common()}
 
 
 def rank_agreement(a: np.ndarray, b: np.ndarray) -> float:

@@ -92,6 +92,8 @@ def test_a_lost_track_is_written_as_missing_with_its_best_guess(scene, tmp_path,
     assert attempt["frame"] == 7 and attempt["trigger"] == "loss test"
     assert attempt["stage"] in ("local", "global")  # the local one failed: the global one ran too
     assert run["per_frame"][7]["recovery"]["evaluations"] == attempt["evaluations"]
+    assert 0 < attempt["seconds"] <= run["per_frame"][7]["seconds"]  # timed within its frame
+    assert run["seconds"]["recovery"] == attempt["seconds"]
     assert run["init_evaluations"] > rec["evaluations"]  # the recovery is counted in it too
     assert len(resets) == 2 and resets[1] - resets[0] > rec["evaluations"]  # after the recovery
     # gait analysis reads them as gaps and says so

@@ -286,6 +286,13 @@ def test_one_pass_records_the_fit_apart_from_the_initialisation(small_scene, tmp
     fit = res.run["shape_fit"]
     assert fit["frames"] == [0, 1, 2] and fit["evaluations"] == res.run["shape_fit_evaluations"] > 0
     assert fit["evaluations"] >= fit["frame_init_evaluations"] > 0 and fit["seconds"] > 0
+    # the one-off stages apart from the tracked frames: the start frame = initialisation + fit
+    sec = res.run["seconds"]
+    start = res.run["per_frame"][0]
+    assert start["status"] == "init" and sec["start"] == pytest.approx(start["seconds"], abs=1e-3)
+    assert sec["shape_fit"] == pytest.approx(fit["seconds"], abs=1e-3) and sec["recovery"] == 0
+    assert sec["initialisation"] == pytest.approx(sec["start"] - sec["shape_fit"], abs=2e-3)
+    assert sec["initialisation"] > 0
     doc = json.loads((tmp_path / "shape.json").read_text())
     assert doc["fit"]["evaluations"] == fit["evaluations"] and doc["source"].startswith("fitted")
     load_shape(tmp_path / "shape.json")  # a valid shape file

@@ -9,6 +9,7 @@ from ..profiling import (
     DATASET,
     PEER_POSES,
     bench_measure,
+    bench_start,
     bench_track,
     device_line,
     load_scene,
@@ -17,12 +18,25 @@ from ..profiling import (
 from .options import add_common, add_option
 
 
+#: Datasets whose default runs' one-off stages the bench times (under mocap_walk_render).
+START_SETS = ("rajagopal_walk_clean_4cam", "rajagopal_walk_clean_1cam")
+
+
 # -- the command -----------------------------------------------------------------------------------
 def _ints(text: str) -> list[int]:
     try:
         return [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise IPFError(f"expected comma-separated integers, got {text!r}") from None
+
+
+def _start_path(value: str, shared: Path) -> Path:
+    """A start record's dataset: a folder, or a name under <shared data>/mocap_walk_render."""
+    path = Path(value)
+    if not path.exists():
+        path = shared / "mocap_walk_render" / value
+    require(path.is_dir(), f"no dataset {value!r} (a folder, or a set of <shared data>/mocap_walk_render)")
+    return path
 
 
 def add_parser(sub) -> None:
@@ -44,6 +58,13 @@ def add_parser(sub) -> None:
     add_option(p, "chunk", help="particles per compiled call (default: the scorer's)")
     p.add_argument("--track-widths", default="320",
                    help="scoring widths for the tracking records (ipf 6561 and apf 4000x5); '' = none")
+    p.add_argument("--start-sets", default=",".join(START_SETS),
+                   help="datasets (folders, or names under <shared data>/mocap_walk_render) whose "
+                        "default run's one-off stages are timed apart from its tracked frames: "
+                        "automatic initialisation, shape fit, recoveries ('' = none; default "
+                        + ", ".join(START_SETS) + ")")
+    p.add_argument("--start-frames", type=int, default=12, help="frames of each start record's run "
+                   "(default 12)")
     p.add_argument("--cold", action="store_true", help="disable the persistent compilation cache")
     p.set_defaults(func=run)
 
@@ -63,8 +84,11 @@ def run(args) -> int:
     require(not bad, f"unknown backend(s) {', '.join(bad)} (choose from {', '.join(BACKENDS)})")
     widths, cams, counts = _ints(args.widths), _ints(args.cameras), _ints(args.particles)
     track_widths = _ints(args.track_widths)
+    starts = [] if args.quick else [_start_path(v.strip(), shared_data_dir())
+                                     for v in args.start_sets.split(",") if v.strip()]
     if args.quick:
         widths, cams, counts, track_widths = [320], [1], [1024], []
+    require(args.start_frames >= 2, f"--start-frames must be >= 2 (got {args.start_frames})")
     require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
     require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
             "cameras, particles and repeats must be >= 1")
@@ -76,7 +100,8 @@ def run(args) -> int:
     print(device_line(), flush=True)
     records: list[dict] = []
     jobs = [(w, c) for w in widths for c in cams]
-    bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths), desc="bench", unit="case")
+    bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths) + len(starts), desc="bench",
+               unit="case")
     for width, n_cam in jobs:
         scene = load_scene(data, width, n_cam, max(counts + [args.numpy_particles]))
         for backend in backends:
@@ -97,6 +122,13 @@ def run(args) -> int:
             write_json_atomic(out, records)
             bar.set_postfix(last=f"track {filt} {width}: {rec['seconds_per_frame']} s/frame")
             bar.update()
+    for path in starts:
+        rec = bench_start(path, args.start_frames)
+        records.append({**rec, "machine": host})
+        write_json_atomic(out, records)
+        bar.set_postfix(last=f"start {path.name}: init {rec['initialisation']['seconds']} s, "
+                             f"shape fit {rec['shape_fit']['seconds']} s")
+        bar.update()
     bar.close()
     print(f"wrote {len(records)} records to {out}")
     return 0

@@ -423,6 +423,7 @@ class Tracker:
                 trigger: str) -> tuple[TrackState, str, list]:
         """A recovery attempt (:func:`.recovery.recover`), kept if it weighs more than the
         current estimate; returns the state, the frame's status and the attempt's score log."""
+        t0 = time.perf_counter()
         active = [i for i in range(len(seen.masks)) if seen.obs.active[i]]
         log: list = []
         measure = self.measure(seen.obs, state.shape, log)
@@ -441,7 +442,8 @@ class Tracker:
         if accepted:
             state = state._replace(filter=self.filter_for(state.shape).init(res.particles, res.weights))
         record = {"frame": int(frame), "trigger": trigger, "stage": None if res is None else res.stage,
-                  "accepted": bool(accepted), "evaluations": int(n)}
+                  "accepted": bool(accepted), "evaluations": int(n),
+                  "seconds": round(time.perf_counter() - t0, 3)}
         info["recovery"] = {k: v for k, v in record.items() if k != "frame"}
         state = state._replace(init_evaluations=state.init_evaluations + n, history=(), low_streak=0,
                                reinits=(*state.reinits, int(frame)), last_attempt=state.next_index,
@@ -583,11 +585,23 @@ class Tracker:
             "reinitialisations": list(state.reinits),
             "recovery": recovery_summary(state.recoveries),
             "loss_levels": self.levels_for(state)._asdict() if self.settings.loss_test else None,
-            "seconds": {"total": round(seconds, 3),
+            "seconds": {"total": round(seconds, 3), **one_off_seconds(per_frame, state),
                         "per_tracked_frame_mean": round(float(np.mean(
                             [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},
             "per_frame": per_frame,
         }
+
+
+def one_off_seconds(per_frame: list[dict], state: TrackState) -> dict:
+    """``run.json``'s one-off stages, in seconds, apart from the tracked frames: ``start`` (the
+    frame(s) the run started on: automatic initialisation and shape fit, compiles included),
+    ``shape_fit``, ``initialisation`` (the start without the fit) and ``recovery`` (all recovery
+    attempts; without the loss test a re-initialisation's time stays in its frame's)."""
+    start = sum(r.get("seconds", 0.0) for r in per_frame if r["status"] == "init")
+    fit = float((state.shape_fit or {}).get("seconds", 0.0))
+    return {"start": round(start, 3), "initialisation": round(max(start - fit, 0.0), 3),
+            "shape_fit": round(fit, 3),
+            "recovery": round(sum(r.get("seconds", 0.0) for r in state.recoveries), 3)}
 
 
 def recovery_summary(recoveries: tuple[dict, ...]) -> dict:
