@@ -108,3 +108,45 @@ def test_no_function_longer_than_80_lines():
             if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))
             and n.end_lineno - n.lineno + 1 > 80]
     assert not long, f"functions over 80 lines: {long}"
+
+
+def _one_error(argv, capsys) -> str:
+    from ipf_jax.cli import main
+
+    code = main(argv)
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), (code, lines)
+    return lines[0]
+
+
+def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, capsys):
+    """An output file that is a folder, an empty name, and 0 for --fps / --resolution (which are
+    not "not given") are refused up front, by the commands that write one file."""
+    (tmp_path / "poses.csv").write_text("x\n")
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    score = ["score", str(tmp_path / "no_dataset"), "--frame", "0", "--poses", str(tmp_path / "poses.csv")]
+    assert "is a folder" in _one_error([*score, "--out", str(folder)], capsys)
+    assert "--out is empty" in _one_error([*score, "--out", ""], capsys)
+    assert "--resolution 0" in _one_error([*score, "--resolution", "0", "--out", str(tmp_path / "s.json")],
+                                          capsys)
+    assert "is a folder" in _one_error(["bench", "--quick", "--json", str(folder)], capsys)
+    assert "particles" in _one_error(["bench", "--quick", "--particles", "0", "--json",
+                                      str(tmp_path / "b.json")], capsys)
+    assert "--fps 0" in _one_error(["render", str(tmp_path), "--out", str(tmp_path / "v.mp4"),
+                                    "--fps", "0"], capsys)
+    assert "--seed" in _one_error(["demo", "--seed", "-1", "--out", str(tmp_path / "demo")], capsys)
+    assert not (tmp_path / "demo").exists()  # refused before anything was rendered
+
+
+def test_score_refuses_a_height_that_disagrees_with_the_shape_file(tmp_path, capsys):
+    import json
+
+    from ipf_jax.body import default_shape
+    from ipf_jax.tracking.shape_fit import shape_doc
+
+    (tmp_path / "shape.json").write_text(json.dumps(shape_doc(default_shape(1.80), "test", None)))
+    line = _one_error(["score", str(tmp_path), "--frame", "0", "--poses", str(tmp_path / "p.csv"),
+                       "--shape", str(tmp_path / "shape.json"), "--height", "1.5",
+                       "--out", str(tmp_path / "s.json")], capsys)
+    assert "disagrees with the shape file's height_m 1.800" in line

@@ -205,6 +205,20 @@ CASES = {
     "zero_apf_layers": (
         lambda ds: ["--filter", "apf", "--layers", "0", "--"], "--layers 0",
         r"at least one layer \(got 0\)", None),
+    "zero_points_per_dof": (
+        lambda ds: ["--points-per-dof", "0", "--"], "--points-per-dof 0",
+        r"points per DOF must be >= 1 \(got 0\)", None),
+    "zero_points_per_dof_ipf": (
+        lambda ds: ["--filter", "ipf", "--points-per-dof", "0", "--"], "--points-per-dof 0",
+        r"points per DOF must be >= 1 \(got 0\)", None),
+    "zero_apf_layers_with_a_budget": (
+        lambda ds: ["--filter", "apf", "--layers", "0", "--budget", "324", "--"], "--layers 0",
+        r"at least one layer \(got 0\)", None),
+    "seed_beyond_32_bits": (
+        lambda ds: ["--seed", "99999999999999999999"], "--seed 99999999999999999999",
+        r"must be 0\.\.4294967295", None),
+    "empty_output_name": (
+        lambda ds: ["--out", ""], "--out", r"is empty: give a folder or file name", None),
     "budget_below_one_grid": (
         lambda ds: ["--filter", "ipf", "--budget", "10", "--points-per-dof", "2", "--"], "--budget 10",
         r"10 particles cannot hold one grid", None),
@@ -335,9 +349,11 @@ def test_a_dataset_nobody_is_in_is_all_missing(base, tmp_path, capsys):
         blank(f)
     out = tmp_path / "run"
     code, lines = run_cli(["track", str(ds), *COMMON, *FILTER, "--out", str(out)], capsys)
-    assert code == 0 and lines == []
+    # an error (nothing was tracked), one line; the files say so frame by frame
+    assert code == 2 and len(lines) == 1 and "no frame of walk shows anyone" in lines[0], lines
     assert np.isnan(np.genfromtxt(out / "joints.csv", delimiter=",", skip_header=1)[:, 2:]).all()
-    assert json.loads((out / "run.json").read_text())["frames"]["missing"] == N_FRAMES
+    run = json.loads((out / "run.json").read_text())  # valid JSON: no NaN where nothing was timed
+    assert run["frames"]["missing"] == N_FRAMES and run["seconds"]["per_tracked_frame_mean"] is None
 
 
 # --- the library side of the same rules ---------------------------------------------------------

@@ -72,13 +72,13 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from tqdm import tqdm
 
-    from ..data.runfiles import check_writable, write_json_atomic
+    from ..data.runfiles import check_output_file, write_json_atomic
     from ..paths import shared_data_dir
 
     data = Path(args.data) if args.data else shared_data_dir() / DATASET
     require((data / "InitialPose.txt").exists(), "not a bodytrack sequence (no InitialPose.txt)", data)
-    out = Path(args.json)
-    check_writable(out.parent if str(out.parent) else Path("."))
+    out = check_output_file(Path(args.json))
+    require(args.budget > 0, f"--budget must be > 0 seconds (got {args.budget})")
     backends = [b.strip() for b in args.backends.split(",") if b.strip()]
     bad = [b for b in backends if b not in BACKENDS]
     require(not bad, f"unknown backend(s) {', '.join(bad)} (choose from {', '.join(BACKENDS)})")
@@ -86,12 +86,12 @@ def run(args) -> int:
     track_widths = _ints(args.track_widths)
     starts = [] if args.quick else [_start_path(v.strip(), shared_data_dir())
                                      for v in args.start_sets.split(",") if v.strip()]
-    if args.quick:
-        widths, cams, counts, track_widths = [320], [1], [1024], []
     require(args.start_frames >= 2, f"--start-frames must be >= 2 (got {args.start_frames})")
     require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
     require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
             "cameras, particles and repeats must be >= 1")
+    if args.quick:  # after the checks: --quick does not hide a bad value
+        widths, cams, counts, track_widths = [320], [1], [1024], []
     if args.cold:
         import jax
 

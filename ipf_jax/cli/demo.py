@@ -19,7 +19,7 @@ from ..geometry.world import up_rotation
 from ..tracking.settings import init_settings
 from ..tracking.tracker import TrackSettings, track
 from ..viz import synthetic as syn
-from .options import add_common, add_option
+from .options import add_common, add_option, check_args
 
 DEMO_HEIGHT_M = 1.72
 DEMO_FPS = 20.0
@@ -39,6 +39,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from .demo import run_demo
+
+    check_args(args)  # --seed, --top-m, --shape-frames, --init-budget: before anything is rendered
 
     return run_demo(Path(args.out), n_frames=args.num_frames, n_cameras=args.cameras, top_m=args.top_m,
                     seed=args.seed or 0, init=init_settings(args.init_budget or "default"),

@@ -72,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         from .. import jax_setup
 
         jax_setup.configure()
+        _refuse_empty_paths(args)
         return args.func(args)
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -87,6 +88,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: internal error in {args.command}: {type(e).__name__}: {_one_line(e)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return INTERNAL_ERROR
+
+
+def _refuse_empty_paths(args: argparse.Namespace) -> None:
+    """``--out ""`` (or ``--json ""``) would write into the current folder: refused."""
+    for name in ("out", "json"):
+        value = getattr(args, name, None)
+        if isinstance(value, str) and not value.strip():
+            raise IPFError(f"--{name} is empty: give a folder or file name")
 
 
 INTERNAL_ERROR = 70  # sysexits.h EX_SOFTWARE

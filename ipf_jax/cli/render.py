@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from ..viz.render import MAX_SIDE, MIN_SIDE, render_run
-from .options import add_common, add_option
+from .options import add_common, add_option, check_args
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -34,6 +34,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_args(args)  # --fps's own rule (0 is refused, not read as "the run's")
     background = "images" if args.images else "masks" if args.masks else None
     summary = render_run(args.run_dir, args.out, dataset=args.dataset, cameras=args.cameras,
                          background=background, frames=args.frames, size=args.size, fps=args.fps,

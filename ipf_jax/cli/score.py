@@ -9,7 +9,7 @@ import numpy as np
 
 from ..data.runfiles import read_pose_rows
 from ..errors import require
-from .options import add_common, add_option
+from .options import add_common, add_option, check_args
 
 
 def add_parser(sub) -> None:
@@ -30,6 +30,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..body.shape import default_shape, load_shape
     from ..data.dataset import open_dataset
+    from ..data.runfiles import check_output_file
     from ..data.silhouette import resize_mask
     from ..geometry.world import detect_up_axis, up_rotation
     from ..likelihood.scorer import (
@@ -41,6 +42,8 @@ def run(args) -> int:
     from ..reference import likelihood as ref
     from ..tracking.tracker import DEFAULT_RESOLUTION
 
+    check_args(args)  # each option's rule, and --shape with a --height that disagrees
+    out_file = check_output_file(Path(args.out))  # before the scoring, not after it
     ds = open_dataset(args.dataset)
     require(args.frame in ds.frames, f"frame {args.frame} is not in the dataset "
             f"({min(ds.frames)}..{max(ds.frames)})", ds.path)
@@ -51,7 +54,8 @@ def run(args) -> int:
     masks = ds.masks(args.frame)
     up = args.up_axis or ds.up_axis or detect_up_axis(ds.cameras, masks)
     U = up_rotation(up)
-    cams, scales = scoring_cameras(ds.cameras, args.resolution or DEFAULT_RESOLUTION)
+    cams, scales = scoring_cameras(ds.cameras, args.resolution if args.resolution is not None
+                                   else DEFAULT_RESOLUTION)
     small = [m if s == 1.0 else resize_mask(m, c.height, c.width) for m, s, c in zip(masks, scales, cams)]
     obs = make_observation(small)
     out = {"dataset": str(ds.path), "frame": args.frame, "up_axis": up,
@@ -84,8 +88,7 @@ def run(args) -> int:
                             "identical_fraction": float(np.mean(np.all(diff == 0, axis=-1))),
                             "note": "geometry is float32 (JAX) vs float64 (NumPy); the raster stage "
                                     "is exact, so differences come only from boundary pixels"}
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(out, indent=1))
+    out_file.write_text(json.dumps(out, indent=1))
     for backend in backends:
         ws = [p["w"] for p in out[backend]["poses"]]
         print(f"{backend}: {len(poses)} poses, {out[backend]['particles_per_s']} poses/s, "

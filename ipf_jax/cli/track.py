@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import require
 from .options import (
     add_common,
     add_tracking_options,
@@ -49,13 +50,19 @@ def run(args) -> int:
         from ..analysis.export.smoothed import write_smoothed
 
         written.append(write_smoothed(args.out).name)
-    print(f"tracked {run['frames']['done']} frames ({run['frames']['missing']} missing) of {ds.name} "
-          f"with {run['filter']} ({run['evaluations_per_frame']} evaluations/frame), "
-          f"{run['seconds']['per_tracked_frame_mean']} s/frame; up axis {run['up_axis']}, "
+    counts = run["frames"]
+    per_frame = run["seconds"]["per_tracked_frame_mean"]
+    print(f"{counts['done']} frames of {ds.name}: {counts['done'] - counts['missing'] - counts['lost']} "
+          f"with an estimate, {counts['lost']} lost, {counts['missing']} missing (nobody in the masks); "
+          f"{run['filter']} ({run['evaluations_per_frame']} evaluations/frame), "
+          f"{'-' if per_frame is None else per_frame} s/tracked frame; up axis {run['up_axis']}, "
           f"height {run['height_m']:.2f} m; re-initialised at {run['reinitialisations'] or 'no frame'}")
     fit = run.get("shape_fit")
     if fit:
         print(f"shape fitted ({run['shape_source']}): {fit['evaluations']} evaluations, "
               f"{fit['seconds']:.1f} s (initialisation: {run['init_evaluations']} evaluations)")
     print(f"wrote {', '.join(written + ['shape.json'])} to {args.out}")
+    require(counts["missing"] < counts["done"], f"no frame of {ds.name} shows anyone: every camera's "
+            "mask is empty (or specks only) on every frame; check the masks' foreground threshold "
+            "or the background model (the files written say so frame by frame)", args.out)
     return 0

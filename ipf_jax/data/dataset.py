@@ -151,12 +151,19 @@ def open_described(path: Path) -> Dataset:
     cams, sources = build_sources(path, doc)
     for cam in cams:
         _check_principal_point(cam, doc_path)
-    fps = doc.get("fps") or next((s.fps for s in sources if getattr(s, "fps", None)), None)
-    require(fps is None or (isinstance(fps, (int, float)) and fps > 0),
+    fps = doc.get("fps")
+    if fps is None:
+        fps = next((s.fps for s in sources if getattr(s, "fps", None)), None)
+    require(fps is None or (isinstance(fps, (int, float)) and not isinstance(fps, bool)
+                            and np.isfinite(fps) and fps > 0),
             f"'fps' must be a positive number, got {fps!r}", doc_path)
+    height = doc.get("height_m")
+    require(height is None or (isinstance(height, (int, float)) and not isinstance(height, bool)
+                               and np.isfinite(height) and 0.5 <= height <= 2.6),
+            f"'height_m' must be a standing height in metres, 0.5..2.6, got {height!r}", doc_path)
     ds = Dataset(path, cams, sources, fps=float(fps) if fps else None, up_axis=doc.get("up_axis"),
                  layout="ipf-jax")
-    ds.height_m = doc.get("height_m")  # the subject's height when the file gives it (or None)
+    ds.height_m = height  # the subject's height when the file gives it (or None)
     return ds
 
 

@@ -133,6 +133,16 @@ def check_writable(out_dir: Path) -> Path:
     return out_dir
 
 
+def check_output_file(path: Path) -> Path:
+    """Make sure ``path`` can be written as a file (its folder created) before the work that fills
+    it is done: one clear error for a folder, an unwritable place or an empty name."""
+    path = Path(path)
+    require(str(path) not in ("", "."), "the output file name is empty")
+    require(not path.is_dir(), "the output is a folder: give a file name", path)
+    check_writable(path.parent if str(path.parent) else Path("."))
+    return path
+
+
 MAX_TABLE_BYTES = 1 << 30  # a run CSV of a day at 100 Hz is far smaller
 MAX_COORD_M = 1e5  # metres: larger coordinates are not positions in a capture volume
 

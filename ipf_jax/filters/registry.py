@@ -101,6 +101,7 @@ def _sir_settings(options: dict, budget: int | None) -> sir.SIRSettings:
 
 def _apf_settings(options: dict, budget: int | None) -> apf.APFSettings:
     settings = apf.APFSettings(**options)
+    apf.validate(settings)  # the given sizes first: a budget is divided by them
     if budget is not None and "particles" not in options:
         require(budget >= settings.layers,
                 f"a budget of {budget} evaluations cannot feed {settings.layers} layers")
@@ -127,6 +128,7 @@ def _sized(options: dict, budget: int | None, fallback: int | None = None) -> tu
 def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
     options, total = _sized(options, budget)
     settings = ipf.IPFSettings(**options)
+    ipf.validate(settings)  # the given sizes first: the total is divided by the grid
     if total is not None:
         grid = settings.grid_size()
         require(total >= grid, f"{total} particles cannot hold one grid of I = {grid} neighbours "
@@ -138,6 +140,7 @@ def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
 def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
     options, total = _sized(options, budget, fipf.DEFAULT_BUDGET)  # no size given: the paper's
     settings = fipf.FIPFSettings(**options)
+    fipf.validate(settings)  # the given sizes first: the total is divided by the grids
     if total is not None:
         for fallback in ({"points_per_dof": 2}, {"points_per_dof": 2, "rounds": 1}):
             if total >= settings.cost_per_particle() or set(fallback) & set(options):

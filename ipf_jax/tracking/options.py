@@ -73,6 +73,10 @@ def _within(lo, hi, unit=""):
     return check
 
 
+def _seed(v):
+    require(0 <= v < 2 ** 32, f"must be 0..{2 ** 32 - 1} (a 32-bit unsigned integer)")
+
+
 def _positive(v):
     require(v > 0, "must be > 0")
 
@@ -184,7 +188,8 @@ OPTIONS: tuple[Option, ...] = (
            "travels over the next second (when it moves steadily 0.3 m or more; default on; "
            "--no-facing-travel: every heading, e.g. for someone walking backwards)"),
     # -- the computation
-    Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)"),
+    Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)",
+           check=_seed),
     Option("chunk", "--chunk", "int", None, "particles per compiled call: memory vs speed, never the "
            f"result (default {DEFAULT_CHUNK}, or fewer where the filter's calls fit them better: "
            "the factored filter's 216)", check=_at_least(1)),

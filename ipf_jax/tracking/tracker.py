@@ -586,10 +586,15 @@ class Tracker:
             "recovery": recovery_summary(state.recoveries),
             "loss_levels": self.levels_for(state)._asdict() if self.settings.loss_test else None,
             "seconds": {"total": round(seconds, 3), **one_off_seconds(per_frame, state),
-                        "per_tracked_frame_mean": round(float(np.mean(
-                            [r["seconds"] for r in tracked if r["status"] == "tracked"] or [np.nan])), 4)},
+                        "per_tracked_frame_mean": _mean_or_none(
+                            [r["seconds"] for r in tracked if r["status"] == "tracked"])},
             "per_frame": per_frame,
         }
+
+
+def _mean_or_none(values: list[float]) -> float | None:
+    """Their mean, rounded; None (JSON null, not NaN) for none."""
+    return round(float(np.mean(values)), 4) if values else None
 
 
 def one_off_seconds(per_frame: list[dict], state: TrackState) -> dict:
