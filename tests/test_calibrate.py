@@ -129,3 +129,15 @@ def test_floor_board_numbering_follows_the_files_camera_layout(turned, unposed):
     assert notes and "numbered from the other end" in notes[0]
     if unposed:
         assert unposed not in notes[0].split(":")[0]
+
+
+def test_bad_sizes_and_markers_are_one_error_line(tmp_path, capsys):
+    from ipf_jax.cli import main
+
+    for extra, message in ((["--size", "abc", "--intrinsics", "left=x.xml"], "--size must look like WIDTHxHEIGHT"),
+                           (["--charuco", "--marker", "0.05", "--camera", "left=x*.jpg"],
+                            "--marker must be positive and smaller than --square")):
+        code = main(["calibrate", "--board", "9x6", "--square", "0.025", *extra,
+                     "--out", str(tmp_path / "c.json")])
+        err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+        assert code == 2 and len(err) == 1 and message in err[0], err

@@ -13,6 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
+from ..data.runfiles import check_output_file
 from ..errors import IPFError, require
 from .options import add_common, flag
 
@@ -58,6 +59,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+def _size(text: str) -> tuple[int, int]:
+    """``"640x480"`` -> (640, 480); one error line for anything else."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise IPFError(f"--size must look like WIDTHxHEIGHT in pixels (e.g. 640x480), got {text!r}") from None
+    require(w > 0 and h > 0, f"--size must be positive pixels, got {text!r}")
+    return w, h
+
+
 def calibrate(args) -> tuple[dict, list[str]]:
     """The cameras.json document and summary lines of the command line's request."""
     from ..data import checkerboard as cb
@@ -65,15 +76,15 @@ def calibrate(args) -> tuple[dict, list[str]]:
 
     board = cb.parse_board(args.board, args.square, charuco=args.charuco, marker=args.marker,
                            dictionary=args.dictionary)
-    size = tuple(int(v) for v in args.size.lower().split("x")) if args.size else None
+    size = _size(args.size) if args.size else None
     req = Request(dict(_pairs(args.camera, flag("camera"))), dict(_pairs(args.intrinsics, "--intrinsics")),
                   dict(_pairs(args.floor, "--floor")), tuple(args.flip), size)
     return calibrate_cameras(board, req, max_error=args.max_error, where=args.out)
 
 
 def run(args: argparse.Namespace) -> int:
+    out = check_output_file(Path(args.out))  # before the calibration, not after it
     doc, notes = calibrate(args)
-    out = Path(args.out)
     tmp = out.with_name(out.name + ".tmp")
     try:  # whole or not at all: a refused fit above wrote nothing
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -79,6 +79,8 @@ def parse_board(text: str, square: float, *, charuco: bool = False, marker: floa
     require(square > 0, f"--square must be positive, got {square:g}")
     if charuco:
         require(hasattr(cv2.aruco, dictionary), f"unknown ArUco dictionary {dictionary!r}")
+        require(marker is None or 0 < marker < square,
+                f"--marker must be positive and smaller than --square ({square:g}), got {marker:g}")
     return Board(cols, rows, float(square), charuco, float(marker or 0.7 * square), dictionary)
 
 
