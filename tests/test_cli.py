@@ -150,3 +150,29 @@ def test_score_refuses_a_height_that_disagrees_with_the_shape_file(tmp_path, cap
                        "--shape", str(tmp_path / "shape.json"), "--height", "1.5",
                        "--out", str(tmp_path / "s.json")], capsys)
     assert "disagrees with the shape file's height_m 1.800" in line
+
+
+def test_init_dataset_and_compare_check_their_values_before_any_work(tmp_path, capsys):
+    init = ["init-dataset", str(tmp_path / "a"), str(tmp_path / "b"), "--calibration",
+            str(tmp_path / "c.json"), "--masks", "--out", str(tmp_path / "ds")]
+    assert "--names lists A more than once" in _one_error([*init, "--names", "A,A"], capsys)
+    assert "--fps -5.0" in _one_error([*init, "--fps", "-5"], capsys)
+    assert "--up" in _one_error([*init, "--up", "q"], capsys)
+    assert not (tmp_path / "ds").exists()
+    assert "--peer-seconds -1.0 needs --peer" in _one_error(
+        ["compare", str(tmp_path), "--budget", "100", "--out", str(tmp_path / "cmp"),
+         "--peer-seconds", "-1"], capsys)
+
+
+def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
+    from ipf_jax.data.runfiles import JOINT_COLUMNS
+
+    run = tmp_path / "run"
+    run.mkdir()
+    nan_row = ",".join(["nan"] * (len(JOINT_COLUMNS) - 2))
+    (run / "joints.csv").write_text(",".join(JOINT_COLUMNS) + "\n" + f"0,0.0,{nan_row}\n1,0.05,{nan_row}\n")
+    (run / "run.json").write_text('{"fps": 20.0, "up_axis": "+z"}')
+    for fmt in ("trc", "c3d"):
+        line = _one_error(["export", str(run), "--format", fmt, "--out", str(tmp_path / f"x.{fmt}")], capsys)
+        assert "no tracked frame to export" in line
+        assert not (tmp_path / f"x.{fmt}").exists()

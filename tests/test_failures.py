@@ -217,6 +217,8 @@ CASES = {
     "seed_beyond_32_bits": (
         lambda ds: ["--seed", "99999999999999999999"], "--seed 99999999999999999999",
         r"must be 0\.\.4294967295", None),
+    "infinite_speed_scale": (
+        lambda ds: ["--speed-scale", "inf"], "--speed-scale inf", r"must be > 0 and finite", None),
     "empty_output_name": (
         lambda ds: ["--out", ""], "--out", r"is empty: give a folder or file name", None),
     "budget_below_one_grid": (

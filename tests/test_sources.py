@@ -221,6 +221,9 @@ BAD = [
     ({**base_doc(masks="../masks"), "camera_height": -1, "up_axis": "+z"}, "camera_height"),
     ({**base_doc(masks="../masks"), "fps": -3}, "'fps' must be a positive number"),
     ({**base_doc(masks="../masks"), "fps": 0}, "'fps' must be a positive number, got 0"),
+    ({"calibration": "../cameras.json", "cameras": [{"masks": "../masks", "name": "cam1"},
+                                                    {"masks": "../masks", "name": "cam1"}]},
+     r"names camera\(s\) cam1 more than once"),
     ({**base_doc(masks="../masks"), "height_m": "tall"}, "'height_m' must be a standing height"),
     ({**base_doc(masks="../masks"), "height_m": -1}, r"'height_m' must be .* got -1"),
 ]

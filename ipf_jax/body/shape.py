@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import IPFError, IPFWarning, load_json, require
 from .model import LEGACY_PARAMS, SHAPE_INDEX, SHAPE_PARAM_NAMES
-from .proportions import check_bounds
+from .proportions import check_bounds, stature
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
@@ -65,6 +65,11 @@ class BodyShape(NamedTuple):
                 "params": {n: float(v) for n, v in zip(SHAPE_PARAM_NAMES, self.values)}}
 
 
+#: How far a shape file's height_m may differ from the standing height of its parameters (the
+#: template's is 7 mm above its nominal 1.75 m).
+HEIGHT_TOLERANCE_M = 0.02
+
+
 def load_shape(path: str | Path) -> BodyShape:
     """Read a shape file (see module docstring); raises :class:`IPFError` on any problem."""
     return shape_from_json(load_json(path, "shape file"), path)
@@ -81,7 +86,7 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     require(not unknown, f"unknown shape parameters: {', '.join(map(repr, unknown))}", path)
     try:
         values = np.array([float(params[n]) for n in SHAPE_PARAM_NAMES])
-        height = float(doc.get("height_m", 1.75))
+        height = None if doc.get("height_m") is None else float(doc["height_m"])
     except (TypeError, ValueError):
         raise IPFError("shape parameters must be numbers (metres)", path) from None
     require(bool(np.all(np.isfinite(values))), "shape parameters must be finite", path)
@@ -89,7 +94,13 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     require(bool(np.all(values[radii] > 0)), "capsule radii must be positive", path)
     lengths = [SHAPE_INDEX[n] for n in ("thigh", "shank", "trunk", "upper_arm", "forearm", "neck")]
     require(bool(np.all(values[lengths] > 0)), "segment lengths must be positive", path)
+    standing = float(stature(values))  # the body's own standing height (proportions doc)
+    if height is None:
+        height = standing
     require(0.5 <= height <= 2.6, f"height_m {height} is outside 0.5..2.6 m", path)
+    require(abs(height - standing) <= HEIGHT_TOLERANCE_M,
+            f"height_m {height:.3f} disagrees with the body its parameters make ({standing:.3f} m "
+            f"standing) by more than {100 * HEIGHT_TOLERANCE_M:.0f} cm", path)
     check_bounds(values, path)  # anthropometric ratios (ipf_jax.body.proportions)
     return BodyShape(values, height)
 

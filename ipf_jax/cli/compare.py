@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..analysis.compare import (
     COLUMNS,
@@ -11,6 +12,7 @@ from ..analysis.compare import (
     markdown_table,
     parse_filters,
 )
+from ..errors import require
 from ..tracking.options import check_value
 from .options import (
     add_common,
@@ -57,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
     values = values_from_args(args)
     for key, value in values.items():  # each option's rule; the filters are checked by compare()
         check_value(key, value, flag(key))
+    require(args.peer_seconds is None or (args.peer and math.isfinite(args.peer_seconds)
+                                          and args.peer_seconds > 0),
+            f"--peer-seconds {args.peer_seconds} needs --peer and must be > 0 seconds per frame")
     ds = open_dataset(args.dataset)
     frames = select_frames(ds.frames, values.get("frames"), where=flag("frames"))
     refs = ([load_truth(args.truth)] if args.truth else []) + (

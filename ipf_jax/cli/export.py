@@ -17,7 +17,7 @@ from ..analysis.export.c3d import export_c3d
 from ..analysis.export.joints_csv import export_csv
 from ..analysis.export.trc import export_trc
 from ..data.rundir import read_run
-from ..errors import IPFError
+from ..errors import IPFError, require
 from ..geometry.world import AXES
 
 #: format -> (exporter, default up axis (None = the run's world frame), default units)
@@ -61,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
                            f"({', '.join(EXPORTERS)})", out)
         export, up, units = EXPORTERS[fmt]
         run_data = read_run(args.run_dir)
+        require(bool(np.isfinite(run_data.joints).all(axis=(1, 2)).any()),
+                "no tracked frame to export (every frame of the run is missing or lost)", args.run_dir)
         if args.smooth:
             if fmt == "bvh":
                 raise IPFError("--smooth applies to the joints (trc, c3d, csv); bvh is written from "

@@ -4,8 +4,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..errors import require
 from ..geometry.world import AXES
-from .options import add_common, add_option
+from .options import add_common, add_option, check_args
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -36,7 +37,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from ..data import init_dataset
 
+    check_args(args)  # --fps and --up: their own rules before anything is written
     names = [n.strip() for n in args.names.split(",")] if args.names else None
+    if names:
+        twice = sorted({n for n in names if names.count(n) > 1})
+        require(not twice, f"--names lists {', '.join(twice)} more than once: one camera per input")
     doc, notes = init_dataset.describe(
         [Path(p) for p in args.inputs], Path(args.calibration), Path(args.out), names=names,
         units=args.units, masks=args.masks,

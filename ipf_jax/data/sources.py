@@ -355,6 +355,9 @@ def _pair_cameras(cams: list[Camera], entries: list[dict], calib: Path) -> list[
         missing = [n for n in names if n not in by_name]
         require(not missing, f"camera(s) {', '.join(missing)} not in the calibration (it has "
                 f"{', '.join(by_name)})", calib)
+        twice = sorted({n for n in names if names.count(n) > 1})
+        require(not twice, f"dataset.json names camera(s) {', '.join(twice)} more than once (each "
+                "entry is one camera of the calibration)", calib)
         return [by_name[n] for n in names]
     require(len(cams) == len(entries), f"the calibration has {len(cams)} cameras but dataset.json "
             f"lists {len(entries)} (give each camera entry the 'name' it has in the calibration)",

@@ -78,7 +78,7 @@ def _seed(v):
 
 
 def _positive(v):
-    require(v > 0, "must be > 0")
+    require(v > 0 and v != float("inf"), "must be > 0 and finite")
 
 
 def _limits(v):
