@@ -198,3 +198,21 @@ def test_lost_frames_and_recovery_count():
     assert doc["lost_frames"] == 4 and doc["longest_lost_run"] == 2
     assert doc["recoveries_frames"] == [3, 1, None]  # 0.25 -> 0.08 three frames on; 0.5 never
     assert doc["worst5_mean_m"] == pytest.approx((0.5 + 0.3 + 0.25 + 0.21 + 0.15) / 5)
+
+
+def test_joints_in_millimetres_are_refused_not_scored(tmp_path):
+    from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv
+    from ipf_jax.errors import IPFError
+
+    row = np.zeros(len(JOINT_COLUMNS))
+    names = [c[:-2] for c in JOINT_COLUMNS[2::3]]
+    row[2 + 3 * names.index("left_knee") + 2] = -0.42  # a 0.42 m thigh, in metres
+    row[2 + 3 * names.index("right_knee") + 2] = -0.42
+    head = ",".join(JOINT_COLUMNS)
+    (tmp_path / "m.csv").write_text(head + "\n" + ",".join(map(str, row)) + "\n")
+    read_joints_csv(tmp_path / "m.csv")
+    mm = row.copy()
+    mm[2:] *= 1000.0
+    (tmp_path / "mm.csv").write_text(head + "\n" + ",".join(map(str, mm)) + "\n")
+    with pytest.raises(IPFError, match=r"thighs \(hip to knee\) measure 420 .*must be metres"):
+        read_joints_csv(tmp_path / "mm.csv")

@@ -220,7 +220,24 @@ def read_joints_csv(path: str | Path) -> JointsTable:
     bad = ~np.isnan(pts) & ~(np.abs(pts) <= MAX_COORD_M)
     require(not bad.any(), f"{int(bad.sum())} coordinates are infinite or beyond {MAX_COORD_M:g} m "
             "(coordinates are metres; missing values are nan)", path)
+    _check_metres(pts, names, path)
     return JointsTable(frame.astype(np.int64), time_s, pts, tuple(names))
+
+
+#: A thigh (hip to knee) longer than this is not an adult's in metres: the file is in other units.
+MAX_THIGH_M = 1.5
+
+
+def _check_metres(pts: np.ndarray, names: list[str], path: Path) -> None:
+    """One error when the hip-to-knee distances say the coordinates are not metres (mm, cm)."""
+    lengths = [np.linalg.norm(pts[:, names.index(f"{s}_hip")] - pts[:, names.index(f"{s}_knee")], axis=-1)
+               for s in ("left", "right") if f"{s}_hip" in names and f"{s}_knee" in names]
+    lengths = np.concatenate(lengths) if lengths else np.empty(0)
+    lengths = lengths[np.isfinite(lengths)]
+    if lengths.size:
+        thigh = float(np.median(lengths))
+        require(thigh <= MAX_THIGH_M, f"the thighs (hip to knee) measure {thigh:g} on the median: "
+                "coordinates must be metres (millimetres or centimetres? divide by 1000 or 100)", path)
 
 
 def read_pose_rows(path: str | Path) -> np.ndarray:
