@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..data.checkpoint import NAME as CHECKPOINT
-from ..errors import IPFError
+from ..data.runfiles import read_joints_csv
+from ..errors import IPFError, require
 from ..jax_setup import release_compiled
 
 
@@ -84,8 +85,9 @@ def execute(spec: dict, work_dir: str | Path) -> dict:
         if work_dir.exists():  # a cell interrupted earlier restarts from its first frame
             shutil.rmtree(work_dir)
         work_dir.mkdir(parents=True)
-        if spec.get("truth") and not Path(spec["truth"]).is_file():  # before hours of tracking
-            raise IPFError("truth file not found", spec["truth"])
+        if spec.get("truth"):  # read before hours of tracking: a missing or corrupt file fails now
+            require(Path(spec["truth"]).is_file(), "truth file not found", spec["truth"])
+            read_joints_csv(spec["truth"])
         ds = open_dataset(spec["dataset"])
         frames = select_frames(ds.frames, parse_frames(spec["frames"]) if spec.get("frames") else None)
         res = track(ds, work_dir, track_settings(spec), frames=frames, progress=False)
