@@ -113,6 +113,15 @@ def limits_min_above_max(ds: Path) -> Path:
     return path
 
 
+def far_pose(ds: Path) -> Path:
+    """The fixture's initial pose moved 50 m up: no camera sees the body there."""
+    lines = (ds / "init.csv").read_text().splitlines()
+    values = [float(v) for v in lines[1].split(",")]
+    values[POSE_COLUMNS[2:].index("root_tz")] += 50.0
+    (ds / "far.csv").write_text(lines[0] + "\n" + ",".join(f"{v:.6f}" for v in values) + "\n")
+    return ds / "far.csv"
+
+
 def truncate(path: Path, keep: int) -> None:
     path.write_bytes(path.read_bytes()[:keep])
 
@@ -219,6 +228,9 @@ CASES = {
         r"must be 0\.\.4294967295", None),
     "infinite_speed_scale": (
         lambda ds: ["--speed-scale", "inf"], "--speed-scale inf", r"must be > 0 and finite", None),
+    "initial_pose_off_every_camera": (
+        lambda ds: ["--init-pose", str(far_pose(ds))], "--init-pose",
+        r"lies off every camera's silhouette on frame 0 \(weight 0\)", None),
     "empty_output_name": (
         lambda ds: ["--out", ""], "--out", r"is empty: give a folder or file name", None),
     "budget_below_one_grid": (

@@ -323,6 +323,10 @@ class Tracker:
         s = self.settings
         self.check_view(seen.obs, seen.masks)
         q, w, shape, n = self.initialise(frame, seen.obs, seen.masks, None, log=log)
+        require(s.init_pose is None or bool(np.nanmax(w) > 0),
+                f"the initial pose (--init-pose) lies off every camera's silhouette on frame {frame} "
+                "(weight 0): is it in this dataset's world coordinates and units (metres, the "
+                "dataset's up axis)?")
         doc = None
         if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
             q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
