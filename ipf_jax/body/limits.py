@@ -32,7 +32,7 @@ class Limits(NamedTuple):
         x = np.array(x, dtype=float, copy=True)
         for i in PERIODIC_DOFS:  # wrap first: a heading of 190 deg is -170 deg, not 180
             x[..., i] = (x[..., i] + np.pi) % (2 * np.pi) - np.pi
-        return np.clip(x, self.lower, self.upper)
+        return np.clip(x, self.lower, self.upper, out=x)  # x is our copy: no second one
 
     def width(self) -> np.ndarray:
         return self.upper - self.lower

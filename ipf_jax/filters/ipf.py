@@ -31,8 +31,8 @@ from .base import (
     Filter,
     FilterState,
     default_noise_rates,
-    gaussian_noise,
     rate_std,
+    standard_normal,
     summarise,
 )
 from .selection import top_distinct
@@ -82,16 +82,20 @@ def build(settings: IPFSettings, limits: Limits, fps: float) -> Filter:
     std_r = rate_std(default_noise_rates()[R], fps) * settings.noise_scale
     m, i = settings.top_m, len(grid)
     n = m * i
+    # every child's offset from its kept particle, (M, I, D): the grid in L, zero in R (the noise
+    # is added there each frame); children j*I + k = kept j, neighbour k
+    offsets = np.zeros((m, i, NUM_DOF))
+    offsets[:, :, L] = grid
 
     def init(particles, weights):
         return FilterState(np.asarray(particles, float), np.asarray(weights, float))
 
     def step(rng_key: jax.Array, state: FilterState, measure):
+        z = standard_normal(rng_key, (n, len(R)))  # dispatched first: drawn while the host selects
         kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
-        new = np.repeat(kept, i, axis=0)  # (N, D): particle j*I + k = kept j, neighbour k
-        new[:, L] = (kept[:, None, L] + grid[None]).reshape(n, len(L))
-        new[:, R] += gaussian_noise(rng_key, (n, len(R)), std_r)
-        new = limits.clip(new)
+        new = kept[:, None, :] + offsets  # (M, I, D), the same sums as kept + grid / kept + 0
+        new[:, :, R] += (np.asarray(z, np.float64) * std_r).reshape(m, i, len(R))
+        new = limits.clip(new.reshape(n, NUM_DOF))
         weights = np.asarray(measure(new), float)
         return FilterState(new, weights), summarise(new, weights, n)
 
