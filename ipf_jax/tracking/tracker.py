@@ -54,7 +54,7 @@ from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
-from ..geometry.rays import camera_rays
+from ..geometry.rays import blobs, camera_rays
 from ..geometry.world import AXES, detect_up_axis, up_rotation
 from ..likelihood.scorer import (
     Observation,
@@ -230,9 +230,13 @@ class Tracker:
         small = [m if s == 1.0 else resize_mask(m, c.height, c.width)
                  for m, s, c in zip(masks, self.scales, self.cameras)]
         obs = make_observation(small)
-        rays = camera_rays(small, self.cameras)  # None for every camera without a blob (inactive)
+        # one connected-components pass per mask for the rays and the quality figures (theirs
+        # agree for bool masks: nonzero as uint8 is the bool mask)
+        found = [blobs(m) if m.dtype == bool else None for m in small]
+        rays = camera_rays(small, self.cameras, found)  # None for every camera without a blob
         person = any(r is not None for r in rays)
-        return Seen(obs, small, person, frame_quality(small), rays)
+        quality = frame_quality(small, [None if f is None else f[0] for f in found])
+        return Seen(obs, small, person, quality, rays)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
         """``fn(particles, shape=None) -> weights`` on ``obs``; with ``log`` every call's
