@@ -104,3 +104,4 @@ def test_spliced_records_are_the_json_text_of_the_whole_document():
         records[-1]["info"]["q"][1] = float(records[-1]["info"]["q"][1])
     other = [{"frame": 9}]  # not the records held: encoded anew
     assert dumps({"per_frame": encoded.update(other)}) == json.dumps({"per_frame": other})
+    assert dumps([1, {"a": [2]}], 1) == json.dumps([1, {"a": [2]}], indent=1)  # not a dict: as is

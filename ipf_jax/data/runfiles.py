@@ -107,7 +107,7 @@ class CsvAppender:
             self._fh.close()
 
 
-def write_json_atomic(path: Path, doc: dict) -> None:
+def write_json_atomic(path: Path, doc) -> None:
     """Write JSON via a temporary file and rename (never a half-written file). Values of ``doc``
     may be :class:`EncodedList` (see :func:`dumps`)."""
     path = Path(path)
@@ -153,11 +153,11 @@ class EncodedList:
         return "[" + pad + ("," + pad).join(t.replace("\n", pad) for t in texts) + "\n" + " " * (indent * level) + "]"
 
 
-def dumps(doc: dict, indent: int | None = None, *, numpy: bool = True) -> str:
+def dumps(doc, indent: int | None = None, *, numpy: bool = True) -> str:
     """``json.dumps(doc, indent=indent)`` (numpy values as lists and numbers; ``numpy=False``:
     a TypeError, as plain ``json.dumps``), the same text, with the top-level values that are
     :class:`EncodedList` spliced in from their texts rather than encoded."""
-    spliced = {k: v for k, v in doc.items() if isinstance(v, EncodedList)}
+    spliced = {k: v for k, v in doc.items() if isinstance(v, EncodedList)} if isinstance(doc, dict) else {}
     marks = {k: f"\x00{k}\x00" for k in spliced}
     text = json.dumps({k: marks.get(k, v) for k, v in doc.items()} if spliced else doc,
                       indent=indent, default=_json_default if numpy else None)
