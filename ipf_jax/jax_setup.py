@@ -67,5 +67,6 @@ def release_compiled(share: float = MAP_SHARE) -> bool:
     if usage is None or usage[0] <= share * usage[1]:
         return False
     jax.clear_caches()
+    gc.unfreeze()  # a frozen cycle (``gc.freeze``, as ``ipf-jax track`` does) is never collected
     gc.collect()
     return True

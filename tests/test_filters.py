@@ -325,3 +325,106 @@ def test_fipf_evaluates_what_it_reports_and_never_loses_the_best():
         weights.append(info.best_weight)
     assert weights == sorted(weights) and weights[-1] > float(measure(start)[0])
     assert fipf.max_speed("left_knee_flexion") == fipf.MAX_SPEEDS["knee_flexion"]
+
+
+# -- compiled draws and the host prediction: the same numbers as the plain eager code ----------
+def test_compiled_draws_are_the_eager_draws_bit_for_bit():
+    from ipf_jax.filters.base import resample_draws, standard_normal
+    from ipf_jax.tracking.tracker import frame_key
+
+    key = jax.random.PRNGKey(11)
+    for shape in [(6561, 27), (4000, NUM_DOF), (7,)]:
+        eager = np.asarray(jax.random.normal(key, shape, dtype=np.float32))
+        assert np.asarray(standard_normal(key, shape)).tobytes() == eager.tobytes()
+    k1, k2 = jax.random.split(key)
+    u, z = resample_draws(key, (300, NUM_DOF))
+    assert float(u) == float(jax.random.uniform(k1, ()))
+    assert np.asarray(z).tobytes() == np.asarray(jax.random.normal(k2, (300, NUM_DOF))).tobytes()
+    for layer, k in enumerate(apf.layer_keys(key, 5)):
+        assert np.array_equal(k, jax.random.fold_in(key, layer))
+    for frame in (0, 1, 17, 4096):
+        for salt in (0, 1, 2):
+            want = jax.random.fold_in(jax.random.fold_in(key, frame), salt)
+            assert np.array_equal(frame_key(key, np.uint32(frame), np.uint32(salt)), want)
+
+
+def _ipf_step_by_definition(settings, limits, key, particles, weights):
+    """IPF's prediction written out plainly: each kept particle repeated I times, its L DOFs
+    moved over the grid, the rest noised, clipped."""
+    from ipf_jax.body.model import DOF_INDEX as IDX
+    from ipf_jax.filters.base import gaussian_noise, rate_std
+    from ipf_jax.filters.ipf import interval_grid
+
+    grid = interval_grid(settings, FPS)
+    L = np.array([IDX[d] for d in settings.interesting])
+    R = np.setdiff1d(np.arange(NUM_DOF), L)
+    kept = particles[top_distinct(particles, weights, settings.top_m)]
+    new = np.repeat(kept, len(grid), axis=0)
+    new[:, L] = (kept[:, None, L] + grid[None]).reshape(-1, len(L))
+    std = rate_std(default_noise_rates()[R], FPS) * settings.noise_scale
+    new[:, R] += gaussian_noise(key, (len(new), len(R)), std)
+    return limits.clip(new)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_ipf_prediction_is_the_plain_definition_bit_for_bit(seed):
+    from ipf_jax.filters import ipf
+
+    rng = np.random.default_rng(seed)
+    settings = ipf.IPFSettings(top_m=7)
+    f = ipf.build(settings, LIMITS, FPS)
+    particles = LIMITS.clip(rng.normal(0, 0.3, (50, NUM_DOF)))
+    particles[:, DOF_INDEX["root_yaw"]] = 3.1  # children wrap around +-pi
+    weights = rng.uniform(0, 1, 50)
+    seen = []
+    key = jax.random.PRNGKey(seed)
+    f.step(key, f.init(particles, weights), lambda x: seen.append(x) or np.ones(len(x)))
+    want = _ipf_step_by_definition(settings, LIMITS, key, particles, weights)
+    assert seen[0].tobytes() == want.tobytes()
+
+
+def test_resample_diffuse_is_systematic_then_noise_bit_for_bit():
+    from ipf_jax.filters.base import gaussian_noise, rate_std, resample_diffuse
+
+    rng = np.random.default_rng(2)
+    particles = rng.normal(0, 0.2, (400, NUM_DOF))
+    weights = rng.uniform(0, 1, 400)
+    std = rate_std(default_noise_rates(), FPS)
+    key = jax.random.PRNGKey(4)
+    k1, k2 = jax.random.split(key)
+    want = LIMITS.clip(particles[systematic(k1, weights, 300)] + gaussian_noise(k2, (300, NUM_DOF), std))
+    got = resample_diffuse(key, particles, weights, std, LIMITS, 300)
+    assert got.tobytes() == want.tobytes()
+
+
+def _anneal_beta_by_definition(likelihood, target, iters=64):
+    """The bisection of :func:`apf.anneal_beta` with every one of its ``iters`` steps taken."""
+    lw = np.log(np.where(likelihood > 0, likelihood, 1.0))
+    live = np.isfinite(likelihood) & (likelihood > 0)
+    lw = lw[live] - lw[live].max()
+
+    def fraction(beta):
+        return live.mean() * apf.effective_fraction(np.exp(beta * lw))
+
+    if fraction(0.0) <= target or lw.min() == 0.0:
+        return 0.0
+    hi = 1.0
+    while fraction(hi) > target:
+        if hi >= apf._MAX_BETA:
+            return hi
+        hi *= 2.0
+    lo = hi / 2.0 if hi > 1.0 else 0.0
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if fraction(mid) > target else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_beta_search_stopping_at_its_fixed_point_is_the_full_bisection(seed):
+    rng = np.random.default_rng(seed)
+    for n, power in [(4000, 1.0), (500, 20.0), (3, 0.5), (2000, 200.0)]:
+        likelihood = rng.uniform(0, 1, n) ** power
+        likelihood[rng.random(n) < 0.1] = 0.0
+        for target in (0.1, 0.5, 0.9):
+            assert apf.anneal_beta(likelihood, target) == _anneal_beta_by_definition(likelihood, target)

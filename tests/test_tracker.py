@@ -84,3 +84,24 @@ def test_resume_after_a_crash_is_byte_identical(scene, tmp_path):
     track(ds, tmp_path / "cut", SETTINGS, progress=False, resume=True)
     for name in ("joints.csv", "poses.csv"):
         assert (tmp_path / "cut" / name).read_bytes() == (full / name).read_bytes()
+
+
+def test_spliced_records_are_the_json_text_of_the_whole_document():
+    """run.json and the checkpoint splice their per-frame records, encoded once each, into the
+    document: the text is what json writes for the whole document, at every size."""
+    from ipf_jax.data.runfiles import EncodedList, dumps
+
+    records = []
+    encoded = EncodedList()
+    for k in range(4):
+        doc = {"a": 1, "per_frame": list(records), "nested": {"x": [1, 2, {"y": None}]},
+               "z": "\u00e9", "w": float("nan")}
+        for indent in (None, 1, 2):
+            want = json.dumps(doc, indent=indent)
+            assert dumps({**doc, "per_frame": encoded.update(tuple(records))}, indent) == want
+        records.append({"frame": k, "info": {"status": "tracked", "q": [0.5, np.float64(-1.25)]},
+                        "empty": [], "none": None, "text": "a\nb \"c\""})
+        records[-1]["info"]["q"][1] = float(records[-1]["info"]["q"][1])
+    other = [{"frame": 9}]  # not the records held: encoded anew
+    assert dumps({"per_frame": encoded.update(other)}) == json.dumps({"per_frame": other})
+    assert dumps([1, {"a": [2]}], 1) == json.dumps([1, {"a": [2]}], indent=1)  # not a dict: as is

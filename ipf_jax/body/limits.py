@@ -27,12 +27,13 @@ class Limits(NamedTuple):
     upper: np.ndarray
     name: str
 
-    def clip(self, x: np.ndarray) -> np.ndarray:
-        """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi)."""
-        x = np.array(x, dtype=float, copy=True)
+    def clip(self, x: np.ndarray, *, copy: bool = True) -> np.ndarray:
+        """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi). ``copy=False``: in
+        place when ``x`` is a float64 array (a caller's fresh array: no copy of N x D)."""
+        x = np.array(x, dtype=float, copy=copy or None)
         for i in PERIODIC_DOFS:  # wrap first: a heading of 190 deg is -170 deg, not 180
             x[..., i] = (x[..., i] + np.pi) % (2 * np.pi) - np.pi
-        return np.clip(x, self.lower, self.upper)
+        return np.clip(x, self.lower, self.upper, out=x)  # x is ours: no second copy
 
     def width(self) -> np.ndarray:
         return self.upper - self.lower

@@ -145,19 +145,21 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
     return 1.0 if union == 0 else float(np.logical_and(a, b).sum() / union)
 
 
-def frame_quality(masks) -> list[list]:
+def frame_quality(masks, stats: list | None = None) -> list[list]:
     """One frame's mask figures, per camera ``[area_px, foreground_share, blobs, one_blob]``:
     blobs are 8-connected components of at least 0.1 % of the foreground, ``one_blob`` whether
-    the largest holds at least :data:`DOMINANT` of it."""
+    the largest holds at least :data:`DOMINANT` of it. ``stats``: per mask the components' stats
+    of its bool mask (``cv2.connectedComponentsWithStats``) or None, when the caller has them."""
     out = []
-    for m in masks:
+    for m, found in zip(masks, stats or [None] * len(masks)):
         m = np.asarray(m, bool)
         area = int(m.sum())
         if area == 0:
             out.append([0, 0.0, 0, False])
             continue
-        _, _, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
-        areas = stats[1:, cv2.CC_STAT_AREA]
+        if found is None:
+            _, _, found, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
+        areas = found[1:, cv2.CC_STAT_AREA]
         out.append([area, round(area / m.size, 6), int((areas >= 0.001 * area).sum()),
                     bool(areas.max() >= DOMINANT * area)])
     return out

@@ -11,14 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IPFError
+from .runfiles import dumps
 
 NAME = "checkpoint.npz"
 
 
 def save(out_dir: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
-    """Write ``meta`` (JSON-able) and ``arrays`` to ``out_dir/checkpoint.npz`` via a temporary file."""
+    """Write ``meta`` (JSON-able; :class:`~ipf_jax.data.runfiles.EncodedList` values spliced) and ``arrays`` to ``out_dir/checkpoint.npz`` via a temporary file."""
     out_dir = Path(out_dir)
-    payload = {"meta": np.frombuffer(json.dumps(meta).encode(), np.uint8), **arrays}
+    payload = {"meta": np.frombuffer(dumps(meta, numpy=False).encode(), np.uint8), **arrays}
     fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=NAME, suffix=".tmp")
     with os.fdopen(fd, "wb") as fh:
         np.savez(fh, **payload)

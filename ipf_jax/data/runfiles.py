@@ -63,6 +63,7 @@ class CsvAppender:
         self.path = Path(path)
         self._header = ",".join(columns) + "\n"
         self._fh = None
+        self._unsynced = False  # rows written since the last fsync
         if keep_rows is None or not self.path.exists():
             require(not keep_rows, f"cannot resume: the file is missing (the checkpoint has {keep_rows} "
                     "rows of it)", self.path)
@@ -77,23 +78,28 @@ class CsvAppender:
                     self.path)
             self.path.write_text("".join(lines[: keep_rows + 1]))
             self._fh = open(self.path, "a")
+            self._unsynced = True  # the cut file reaches the disk with the next sync
 
     def _start(self) -> None:
         self._fh = open(self.path, "w")
         self._fh.write(self._header)
         self._fh.flush()
+        self._unsynced = True
 
     def write(self, frame: int, time_s: float, values: np.ndarray) -> None:
         if self._fh is None:
             self._start()
         self._fh.write(format_row(frame, time_s, values))
         self._fh.flush()
+        self._unsynced = True
 
     def sync(self) -> None:
-        """Every row written so far on disk."""
-        if self._fh is not None:
+        """Every row written so far on disk (no fsync when nothing was written since the last:
+        closing after the last checkpoint's sync costs nothing)."""
+        if self._fh is not None and self._unsynced:
             self._fh.flush()
             os.fsync(self._fh.fileno())
+            self._unsynced = False
 
     def close(self) -> None:
         if self._fh is not None:
@@ -101,15 +107,63 @@ class CsvAppender:
             self._fh.close()
 
 
-def write_json_atomic(path: Path, doc: dict) -> None:
-    """Write JSON via a temporary file and rename (never a half-written file)."""
+def write_json_atomic(path: Path, doc) -> None:
+    """Write JSON via a temporary file and rename (never a half-written file). Values of ``doc``
+    may be :class:`EncodedList` (see :func:`dumps`)."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     with os.fdopen(fd, "w") as fh:
-        json.dump(doc, fh, indent=1, default=_json_default)
+        fh.write(dumps(doc, indent=1))
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)
+
+
+class EncodedList:
+    """A list of JSON values that only grows, each value encoded once.
+
+    A run's per-frame records go into every ``run.json`` and checkpoint; encoding them all again
+    each time costs a time that grows with the run (1000 records: ~65 ms per checkpoint, json's
+    indented encoder being pure Python), so :func:`dumps` splices their texts instead.
+    """
+
+    def __init__(self):
+        self._values: list = []
+        self._texts: dict[int | None, list[str]] = {}  # indent -> one text per value
+
+    def update(self, values) -> "EncodedList":
+        """Hold ``values`` (a sequence that starts with the values held, as a growing tuple does;
+        anything else is encoded anew)."""
+        n = len(self._values)
+        if len(values) < n or (n and values[n - 1] is not self._values[n - 1]):
+            self._values, self._texts, n = [], {}, 0
+        self._values.extend(values[n:])
+        return self
+
+    def text(self, indent: int | None, level: int) -> str:
+        """The list as ``json.dumps`` writes it as a value ``level`` deep (1: a top-level key's)."""
+        texts = self._texts.setdefault(indent, [])
+        for v in self._values[len(texts):]:
+            texts.append(json.dumps(v, indent=indent, default=_json_default))  # as dumps does
+        if not texts:
+            return "[]"
+        if indent is None:
+            return "[" + ", ".join(texts) + "]"
+        pad = "\n" + " " * (indent * (level + 1))  # each item's own lines move in with it
+        return "[" + pad + ("," + pad).join(t.replace("\n", pad) for t in texts) + "\n" + " " * (indent * level) + "]"
+
+
+def dumps(doc, indent: int | None = None, *, numpy: bool = True) -> str:
+    """``json.dumps(doc, indent=indent)`` (numpy values as lists and numbers; ``numpy=False``:
+    a TypeError, as plain ``json.dumps``), the same text, with the top-level values that are
+    :class:`EncodedList` spliced in from their texts rather than encoded."""
+    spliced = {k: v for k, v in doc.items() if isinstance(v, EncodedList)} if isinstance(doc, dict) else {}
+    marks = {k: f"\x00{k}\x00" for k in spliced}
+    text = json.dumps({k: marks.get(k, v) for k, v in doc.items()} if spliced else doc,
+                      indent=indent, default=_json_default if numpy else None)
+    for k, v in spliced.items():
+        text = text.replace(json.dumps(marks[k]), v.text(indent, 1), 1)
+    return text
 
 
 def _json_default(o):

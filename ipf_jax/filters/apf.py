@@ -18,6 +18,7 @@ and the annealed-weight mean (``FilterInfo.mean``: Deutscher & Reid's and bodytr
 """
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -94,9 +95,13 @@ def anneal_beta(likelihood: np.ndarray, target: float, *, iters: int = 64) -> fl
         return 0.0
     lw = lw[live] - lw[live].max()  # (N_live,) <= 0, so exp never overflows
     live_fraction = live.mean()
+    w, w2 = np.empty_like(lw), np.empty_like(lw)  # one pair of buffers for every evaluation
 
     def fraction(beta: float) -> float:
-        return live_fraction * effective_fraction(np.exp(beta * lw))
+        # effective_fraction(np.exp(beta * lw)), the same operations without new arrays
+        np.exp(np.multiply(beta, lw, out=w), out=w)
+        s2 = float(np.sum(np.multiply(w, w, out=w2)))
+        return live_fraction * (float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0)
 
     if fraction(0.0) <= target or lw.min() == 0.0:
         return 0.0
@@ -108,7 +113,10 @@ def anneal_beta(likelihood: np.ndarray, target: float, *, iters: int = 64) -> fl
     lo = hi / 2.0 if hi > 1.0 else 0.0
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if fraction(mid) > target else (lo, mid)
+        step = (mid, hi) if fraction(mid) > target else (lo, mid)
+        if step == (lo, hi):  # mid is lo or hi: every later step would repeat this one
+            break
+        lo, hi = step
     return 0.5 * (lo + hi)
 
 
@@ -121,6 +129,12 @@ def annealed_weights(likelihood: np.ndarray, target: float) -> tuple[np.ndarray,
     return np.exp(beta * (lw - lw[np.isfinite(lw)].max())), beta
 
 
+@functools.partial(jax.jit, static_argnames="layers")
+def layer_keys(rng_key: jax.Array, layers: int) -> tuple[jax.Array, ...]:
+    """``fold_in(rng_key, layer)`` of every layer, in one compiled call."""
+    return tuple(jax.random.fold_in(rng_key, layer) for layer in range(layers))
+
+
 def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
     """The APF kernel for fixed settings: exactly ``particles x layers`` evaluations per frame."""
     validate(settings)
@@ -130,10 +144,10 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
 
     def step(rng_key: jax.Array, state: FilterState, measure):
         x = state.particles
+        keys = layer_keys(rng_key, layers)
         pi, _ = annealed_weights(state.weights, settings.survival)
         for layer, scale in enumerate(scales):
-            key = jax.random.fold_in(rng_key, layer)
-            x = resample_diffuse(key, x, pi, std * scale, limits, n)  # (N, D)
+            x = resample_diffuse(keys[layer], x, pi, std * scale, limits, n)  # (N, D)
             likelihood = np.asarray(measure(x), float)
             pi, _ = annealed_weights(likelihood, settings.survival)
         info = summarise(x, likelihood, n * layers)

@@ -68,11 +68,16 @@ def top_distinct(particles: np.ndarray, weights: np.ndarray, num: int) -> np.nda
 
 def systematic(rng_key: jax.Array, weights: np.ndarray, num_samples: int) -> np.ndarray:
     """Systematic resampling: one uniform offset, ``num_samples`` evenly spaced pointers."""
+    return systematic_at(float(jax.random.uniform(rng_key, ())), weights, num_samples)
+
+
+def systematic_at(u: float, weights: np.ndarray, num_samples: int) -> np.ndarray:
+    """:func:`systematic` with its uniform offset ``u`` in [0, 1) drawn already (by a caller that
+    draws it with the noise in one compiled call)."""
     w = np.where(np.isfinite(weights), np.maximum(weights, 0.0), 0.0)
     if w.sum() <= 0:
         w = np.ones_like(w)
     cdf = np.cumsum(w / w.sum())
     cdf[-1] = 1.0
-    u = float(jax.random.uniform(rng_key, ()))
     pointers = (u + np.arange(num_samples)) / num_samples
     return np.searchsorted(cdf, pointers, side="right").clip(0, len(w) - 1)

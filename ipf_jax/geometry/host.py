@@ -8,6 +8,9 @@ it (:mod:`ipf_jax.reference` builds the oracle likelihood on it).
 """
 from __future__ import annotations
 
+import functools
+from typing import NamedTuple
+
 import numpy as np
 
 from ..body.model import DOF_INDEX, FRAMES, POINTS, SEGMENTS, SHAPE_INDEX, parse_coord
@@ -38,10 +41,38 @@ def _homogeneous(R: np.ndarray, t: np.ndarray) -> np.ndarray:
     return H
 
 
+class _Body(NamedTuple):
+    """The shape's part of forward kinematics: every frame's origin in its parent (3,), and every
+    point's and capsule end's homogeneous position in its frame (4,); capsule radii (S, 2)."""
+
+    origins: dict[str, np.ndarray]
+    points: tuple[tuple[str, np.ndarray], ...]
+    seg_a: tuple[tuple[str, np.ndarray], ...]
+    seg_b: tuple[tuple[str, np.ndarray], ...]
+    seg_r: np.ndarray
+
+
+@functools.lru_cache(maxsize=32)
+def _body(shape_bytes: bytes) -> _Body:
+    """:class:`_Body` of float64 shape values given as bytes (a run has one or a few shapes, so
+    the terms of every position are summed once per shape, not once per call)."""
+    shape_values = np.frombuffer(shape_bytes, float)
+
+    def at(frame, coords):
+        return frame, np.append(_vector(coords, shape_values), 1.0)
+
+    return _Body({f.name: _vector(f.origin, shape_values) for f in FRAMES if f.parent is not None},
+                 tuple(at(p.frame, p.position) for p in POINTS),
+                 tuple(at(s.frame, s.a) for s in SEGMENTS),
+                 tuple(at(s.frame, s.b) for s in SEGMENTS),
+                 np.array([[shape_values[SHAPE_INDEX[s.r_a]], shape_values[SHAPE_INDEX[s.r_b]]]
+                           for s in SEGMENTS]))
+
+
 def forward_kinematics(q, shape_values, up) -> Pose3D:
     """q : (D,), shape_values : (P,), up : (3, 3) -> Pose3D of float64 arrays (one particle)."""
     q = np.asarray(q, float)
-    shape_values = np.asarray(shape_values, float)
+    body = _body(np.ascontiguousarray(shape_values, float).tobytes())
     world: dict[str, np.ndarray] = {}
     for f in FRAMES:
         R = np.eye(3)
@@ -50,17 +81,12 @@ def forward_kinematics(q, shape_values, up) -> Pose3D:
         if f.parent is None:
             world[f.name] = _homogeneous(np.asarray(up, float) @ R, q[:3])
         else:
-            world[f.name] = world[f.parent] @ _homogeneous(R, _vector(f.origin, shape_values))
+            world[f.name] = world[f.parent] @ _homogeneous(R, body.origins[f.name])
 
-    def place(frame, coords):
-        return (world[frame] @ np.append(_vector(coords, shape_values), 1.0))[:3]
+    def place(placed):
+        return np.array([(world[frame] @ h)[:3] for frame, h in placed])
 
-    points = np.array([place(p.frame, p.position) for p in POINTS])
-    seg_a = np.array([place(s.frame, s.a) for s in SEGMENTS])
-    seg_b = np.array([place(s.frame, s.b) for s in SEGMENTS])
-    seg_r = np.array([[shape_values[SHAPE_INDEX[s.r_a]], shape_values[SHAPE_INDEX[s.r_b]]]
-                      for s in SEGMENTS])
-    return Pose3D(points, seg_a, seg_b, seg_r)
+    return Pose3D(place(body.points), place(body.seg_a), place(body.seg_b), body.seg_r.copy())
 
 
 def project_points(cam: Camera, X: np.ndarray):

@@ -15,9 +15,20 @@ import numpy as np
 from .camera import Camera
 
 
-def blob_centroid(mask: np.ndarray, min_area: int = 20) -> tuple[float, float] | None:
-    """Centroid (u, v) of the largest 8-connected foreground blob, or None."""
-    n, _, stats, cents = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+def blobs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(stats (K, 5), centroids (K, 2)) of the 8-connected foreground blobs of ``mask`` (nonzero
+    as uint8), row 0 the background: ``cv2.connectedComponentsWithStats``'s, computed once for
+    every user of a frame's masks."""
+    _, _, stats, cents = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    return stats, cents
+
+
+def blob_centroid(mask: np.ndarray, min_area: int = 20,
+                  found: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[float, float] | None:
+    """Centroid (u, v) of the largest 8-connected foreground blob, or None; ``found``: the
+    mask's :func:`blobs` when the caller has them."""
+    stats, cents = blobs(mask) if found is None else found
+    n = len(stats)
     if n <= 1:
         return None
     k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
@@ -33,11 +44,12 @@ def viewing_ray(cam: Camera, u: float, v: float) -> tuple[np.ndarray, np.ndarray
     return cam.centre, d / np.linalg.norm(d)
 
 
-def camera_rays(masks: list[np.ndarray], cameras: list[Camera]) -> list:
-    """Per camera, the ray through its largest blob's centroid, or None when it sees no one."""
+def camera_rays(masks: list[np.ndarray], cameras: list[Camera], found: list | None = None) -> list:
+    """Per camera, the ray through its largest blob's centroid, or None when it sees no one;
+    ``found``: per mask its :func:`blobs` (or None) when the caller has them."""
     out = []
-    for mask, cam in zip(masks, cameras):
-        c = blob_centroid(mask)
+    for mask, cam, f in zip(masks, cameras, found or [None] * len(masks)):
+        c = blob_centroid(mask, found=f)
         out.append(None if c is None else viewing_ray(cam, *c))
     return out
 

@@ -74,8 +74,8 @@ class FloorContact(NamedTuple):
     def name(self):
         return self.limits.name
 
-    def clip(self, x: np.ndarray) -> np.ndarray:
-        x = self.limits.clip(x)
+    def clip(self, x: np.ndarray, *, copy: bool = True) -> np.ndarray:
+        x = self.limits.clip(x, copy=copy)
         h = lowest_heights(x, self.shape, self.U)
         lift = np.clip(h, self.floor_min, self.floor_max) - h  # 0 inside the range
         x[:, :3] += lift[:, None] * self.U[:, 2]

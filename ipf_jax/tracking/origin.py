@@ -43,9 +43,10 @@ class FrameAnchor(NamedTuple):
 
 
 def observe_anchor(masks: list[np.ndarray], cameras: list[Camera], up: np.ndarray,
-                   height_m: float) -> FrameAnchor:
-    """The frame's anchor evidence (masks and cameras at the same resolution)."""
-    rays = camera_rays(masks, cameras)
+                   height_m: float, rays: list | None = None) -> FrameAnchor:
+    """The frame's anchor evidence (masks and cameras at the same resolution); ``rays``: their
+    :func:`~ipf_jax.geometry.rays.camera_rays` when the caller has them already."""
+    rays = camera_rays(masks, cameras) if rays is None else rays
     seen = [k for k, r in enumerate(rays) if r is not None]
     feet = None
     if len(seen) == 1 and is_upright(cameras[seen[0]], up):

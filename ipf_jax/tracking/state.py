@@ -15,6 +15,7 @@ import numpy as np
 
 from ..body.shape import BodyShape, shape_from_json
 from ..data import checkpoint
+from ..data.runfiles import EncodedList
 from ..errors import IPFError
 from ..filters.base import FilterState
 from .origin import FrameAnchor
@@ -77,12 +78,15 @@ class FrameRecord(NamedTuple):
     info: dict
 
 
-def save(out_dir: Path, state: TrackState, settings_key: str) -> None:
-    """Write ``state`` as the run's checkpoint (atomically)."""
+def save(out_dir: Path, state: TrackState, settings_key: str,
+         records: EncodedList | None = None) -> None:
+    """Write ``state`` as the run's checkpoint (atomically); ``records``: its records already
+    encoded (:class:`~ipf_jax.data.runfiles.EncodedList`), kept from one checkpoint to the next."""
     meta = {"next_index": state.next_index, "rows": state.rows,
             "shape": None if state.shape is None else state.shape.to_json(),
             "history": list(state.history), "low_streak": state.low_streak,
-            "per_frame": list(state.records), "reinits": list(state.reinits),
+            "per_frame": list(state.records) if records is None else records.update(state.records),
+            "reinits": list(state.reinits),
             "init_evaluations": state.init_evaluations, "settings_key": settings_key,
             "anchor": None if state.anchor is None else state.anchor.to_json(),
             "anchor_height": state.anchor_height, "shape_fit": state.shape_fit,
