@@ -173,11 +173,13 @@ CASES = {
     "corrupt_png_mid_run": (
         lambda ds: [(ds / "FG2" / "image0002.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256))),
                     "--init-pose", str(ds / "init.csv")][1:],
-        "FG2/image0002.png", r"(corrupt|truncated).*\(at frame 2\)", 2),
+        "FG2/image0002.png", r"(corrupt|truncated).*\(at frame 2; rows written so far are kept: fix it "
+        r"and rerun with --resume\)", 2),
     "zero_length_png_mid_run": (
         lambda ds: [(ds / "FG1" / "image0001.png").write_bytes(b""),
                     "--init-pose", str(ds / "init.csv")][1:],
-        "FG1/image0001.png", r"empty \(zero-byte\) image file \(at frame 1\)", 1),
+        "FG1/image0001.png", r"empty \(zero-byte\) image file \(at frame 1; rows written so far are kept",
+        1),
     "zero_length_video": (
         lambda ds: video_dataset(ds, lambda p: p.write_bytes(b"")),
         "cam1.avi", r"zero-length video", None),
@@ -191,7 +193,7 @@ CASES = {
         None),
     "nan_in_a_float_mask_mid_run": (
         lambda ds: [nan_tiff(ds, 1), "--init-pose", str(ds / "init.csv")][1:],
-        "FG1/image0001.tiff", r"mask has 1 NaN pixels .*\(at frame 1\)", 1),
+        "FG1/image0001.tiff", r"mask has 1 NaN pixels .*\(at frame 1; rows written so far are kept", 1),
     "limits_min_above_max": (
         lambda ds: ["--limits", str(limits_min_above_max(ds))],
         "limits.json", r"left_knee_flexion: min 10\.0 > max -10\.0", None),

@@ -86,6 +86,37 @@ def test_resume_after_a_crash_is_byte_identical(scene, tmp_path):
         assert (tmp_path / "cut" / name).read_bytes() == (full / name).read_bytes()
 
 
+def test_an_input_error_mid_run_keeps_every_frame_done_resumable(scene, tmp_path):
+    """A bad frame stops the run with one error; the frames before it, also those after the last
+    periodic checkpoint, are saved (checkpoint and run.json): a resume does not redo them."""
+    from ipf_jax.data import checkpoint
+    from ipf_jax.errors import IPFError
+
+    class BadFrame(CrashingDataset):
+        def masks(self, frame):
+            if self.crash_at is not None and frame == self.crash_at:
+                raise IPFError(f"corrupt mask on frame {frame}", "FG1/image.png")
+            return MemoryDataset.masks(self, frame)
+
+    cams, q, masks = scene
+    full = tmp_path / "full"
+    track(MemoryDataset(cams, masks, fps=20.0), full, SETTINGS._replace(checkpoint_every=100), progress=False)
+    ds = BadFrame(cams, masks, fps=20.0)
+    ds.crash_at = 5
+    settings = SETTINGS._replace(checkpoint_every=100)  # no periodic checkpoint before the error
+    with pytest.raises(IPFError, match=r"corrupt mask on frame 5 \(at frame 5; rows written so far are "
+                                       r"kept: fix it and rerun with --resume\)"):
+        track(ds, tmp_path / "cut", settings, progress=False)
+    assert (tmp_path / "cut" / checkpoint.NAME).exists()
+    run = json.loads((tmp_path / "cut" / "run.json").read_text())
+    assert run["frames"]["done"] == 5 and [r["frame"] for r in run["per_frame"]] == [0, 1, 2, 3, 4]
+    ds.crash_at = None
+    res = track(ds, tmp_path / "cut", settings, progress=False, resume=True)
+    assert res.run["init_evaluations"] == json.loads((full / "run.json").read_text())["init_evaluations"]
+    for name in ("joints.csv", "poses.csv"):
+        assert (tmp_path / "cut" / name).read_bytes() == (full / name).read_bytes()
+
+
 def test_spliced_records_are_the_json_text_of_the_whole_document():
     """run.json and the checkpoint splice their per-frame records, encoded once each, into the
     document: the text is what json writes for the whole document, at every size."""
@@ -105,3 +136,16 @@ def test_spliced_records_are_the_json_text_of_the_whole_document():
     other = [{"frame": 9}]  # not the records held: encoded anew
     assert dumps({"per_frame": encoded.update(other)}) == json.dumps({"per_frame": other})
     assert dumps([1, {"a": [2]}], 1) == json.dumps([1, {"a": [2]}], indent=1)  # not a dict: as is
+
+
+def test_result_files_are_readable_like_the_users_other_files(tmp_path):
+    import os
+
+    from ipf_jax.data.runfiles import write_json_atomic
+
+    umask = os.umask(0o022)
+    try:
+        write_json_atomic(tmp_path / "run.json", {"a": 1})
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "run.json").stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import IPFError
-from .runfiles import dumps
+from .runfiles import atomic_temp, dumps
 
 NAME = "checkpoint.npz"
 
@@ -20,7 +19,7 @@ def save(out_dir: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
     """Write ``meta`` (JSON-able; :class:`~ipf_jax.data.runfiles.EncodedList` values spliced) and ``arrays`` to ``out_dir/checkpoint.npz`` via a temporary file."""
     out_dir = Path(out_dir)
     payload = {"meta": np.frombuffer(dumps(meta, numpy=False).encode(), np.uint8), **arrays}
-    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=NAME, suffix=".tmp")
+    fd, tmp = atomic_temp(out_dir / NAME)
     with os.fdopen(fd, "wb") as fh:
         np.savez(fh, **payload)
         fh.flush()

@@ -107,11 +107,22 @@ class CsvAppender:
             self._fh.close()
 
 
+def atomic_temp(path: Path) -> tuple[int, str]:
+    """(fd, name) of a temporary file beside ``path``, to be renamed onto it, readable like any
+    file the user creates (``mkstemp`` makes them 0600: results others could not read)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    if hasattr(os, "fchmod"):  # POSIX
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)
+    return fd, tmp
+
+
 def write_json_atomic(path: Path, doc) -> None:
     """Write JSON via a temporary file and rename (never a half-written file). Values of ``doc``
     may be :class:`EncodedList` (see :func:`dumps`)."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    fd, tmp = atomic_temp(path)
     with os.fdopen(fd, "w") as fh:
         fh.write(dumps(doc, indent=1))
         fh.flush()

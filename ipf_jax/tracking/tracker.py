@@ -517,6 +517,17 @@ class Tracker:
                    disable=not progress, leave=True)
         frame = shape_written = None
         records = EncodedList()  # every checkpoint writes them all: each is encoded once
+        saved = state.next_index
+
+        def save() -> None:  # the rows the checkpoint counts are on disk first
+            nonlocal saved
+            joints_csv.sync()
+            poses_csv.sync()
+            track_state.save(out_dir, state, key, records.update(state.records))
+            write_json_atomic(out_dir / "run.json", {
+                **self.run_doc(state, time.perf_counter() - t_start), "per_frame": records})
+            saved = state.next_index
+
         try:
             for frame in bar:
                 t0 = time.perf_counter()
@@ -533,17 +544,18 @@ class Tracker:
                     write_json_atomic(out_dir / "shape.json", shape_written)
                 if state.next_index % self.settings.checkpoint_every == 0 \
                         or state.next_index == len(self.frames):
-                    joints_csv.sync()  # the rows the checkpoint counts are on disk first
-                    poses_csv.sync()
-                    track_state.save(out_dir, state, key, records.update(state.records))
-                    write_json_atomic(out_dir / "run.json", {
-                        **self.run_doc(state, time.perf_counter() - t_start), "per_frame": records})
+                    save()
                 if frame_hook is not None and rec.info["status"] != "missing":
                     guess = rec.info.get("best_guess")  # a lost frame shows its best guess
                     pose = rec.pose if guess is None else np.asarray(guess["pose"])
                     frame_hook(FrameView(frame, seen.masks, self.cameras, pose, state.shape,
                                          self.U, rec.info["weight"]))
-        except IPFError as e:  # say where the run stopped and that its rows are safe
+        except IPFError as e:  # say where the run stopped and that what was computed is safe
+            if state.next_index > saved:  # the frames since the last checkpoint: resumable too
+                try:
+                    save()
+                except (OSError, IPFError):
+                    pass  # the error to report is the one that stopped the run
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
                     if (out_dir / checkpoint.NAME).exists() else "")
             raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
