@@ -126,15 +126,10 @@ def test_missing_limits_file_lists_presets(tmp_path):
         load_limits(tmp_path / "nope.json")
 
 
-def test_a_shape_files_height_must_agree_with_its_parameters(tmp_path):
+def test_a_shape_file_without_height_gets_its_parameters_standing_height(tmp_path):
     from ipf_jax.body.model import SHAPE_PARAM_NAMES
 
     body = default_shape(1.857)
     params = dict(zip(SHAPE_PARAM_NAMES, map(float, body.values)))
-    (tmp_path / "ok.json").write_text(json.dumps({"height_m": 1.857, "params": params}))
-    assert load_shape(tmp_path / "ok.json").height_m == 1.857
-    (tmp_path / "noh.json").write_text(json.dumps({"params": params}))  # left out: the body's own
+    (tmp_path / "noh.json").write_text(json.dumps({"params": params}))  # was 1.75 m whatever the body
     assert abs(load_shape(tmp_path / "noh.json").height_m - 1.857) < 0.02
-    (tmp_path / "wrong.json").write_text(json.dumps({"height_m": 1.6, "params": params}))
-    with pytest.raises(IPFError, match=r"height_m 1\.600 disagrees with the body its parameters make"):
-        load_shape(tmp_path / "wrong.json")

@@ -65,11 +65,6 @@ class BodyShape(NamedTuple):
                 "params": {n: float(v) for n, v in zip(SHAPE_PARAM_NAMES, self.values)}}
 
 
-#: How far a shape file's height_m may differ from the standing height of its parameters (the
-#: template's is 7 mm above its nominal 1.75 m).
-HEIGHT_TOLERANCE_M = 0.02
-
-
 def load_shape(path: str | Path) -> BodyShape:
     """Read a shape file (see module docstring); raises :class:`IPFError` on any problem."""
     return shape_from_json(load_json(path, "shape file"), path)
@@ -94,13 +89,9 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
     require(bool(np.all(values[radii] > 0)), "capsule radii must be positive", path)
     lengths = [SHAPE_INDEX[n] for n in ("thigh", "shank", "trunk", "upper_arm", "forearm", "neck")]
     require(bool(np.all(values[lengths] > 0)), "segment lengths must be positive", path)
-    standing = float(stature(values))  # the body's own standing height (proportions doc)
-    if height is None:
-        height = standing
+    if height is None:  # left out: the body's own standing height (proportions doc)
+        height = float(stature(values))
     require(0.5 <= height <= 2.6, f"height_m {height} is outside 0.5..2.6 m", path)
-    require(abs(height - standing) <= HEIGHT_TOLERANCE_M,
-            f"height_m {height:.3f} disagrees with the body its parameters make ({standing:.3f} m "
-            f"standing) by more than {100 * HEIGHT_TOLERANCE_M:.0f} cm", path)
     check_bounds(values, path)  # anthropometric ratios (ipf_jax.body.proportions)
     return BodyShape(values, height)
 
