@@ -133,3 +133,12 @@ def test_a_shape_file_without_height_gets_its_parameters_standing_height(tmp_pat
     params = dict(zip(SHAPE_PARAM_NAMES, map(float, body.values)))
     (tmp_path / "noh.json").write_text(json.dumps({"params": params}))  # was 1.75 m whatever the body
     assert abs(load_shape(tmp_path / "noh.json").height_m - 1.857) < 0.02
+
+
+@pytest.mark.parametrize("rng, message", [([None, 30], "needs both ends"), ([0, 9000], "not a range of degrees")])
+def test_limits_files_refuse_unbounded_or_radian_looking_angles(tmp_path, rng, message):
+    doc = json.loads((PRESET_DIR / "limits_default.json").read_text())
+    doc["dofs"]["left_knee_flexion"] = rng
+    (tmp_path / "limits.json").write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match=f"left_knee_flexion: .*{message}"):
+        load_limits(tmp_path / "limits.json")

@@ -55,6 +55,8 @@ def load_limits(preset_or_path: str | Path = "default") -> Limits:
     for d in DOFS:
         rng = dofs[d.name]
         require(isinstance(rng, list) and len(rng) == 2, f"{d.name}: range must be [min, max]", path)
+        require(d.unit != "rad" or None not in rng, f"{d.name}: an angle's range needs both ends "
+                "(null = unbounded is for the root's translation)", path)
         lo, hi = (-_UNBOUNDED if rng[0] is None else rng[0]), (_UNBOUNDED if rng[1] is None else rng[1])
         try:
             lo, hi = float(lo), float(hi)
@@ -63,6 +65,8 @@ def load_limits(preset_or_path: str | Path = "default") -> Limits:
         require(np.isfinite(lo) and np.isfinite(hi), f"{d.name}: range must be finite", path)
         require(lo <= hi, f"{d.name}: min {lo} > max {hi}", path)
         if d.unit == "rad":
+            require(-360.0 <= lo and hi <= 360.0, f"{d.name}: [{lo:g}, {hi:g}] is not a range of "
+                    "degrees (-360..360)", path)
             lo, hi = np.deg2rad(lo), np.deg2rad(hi)
         lower[DOF_INDEX[d.name]], upper[DOF_INDEX[d.name]] = lo, hi
     return Limits(lower, upper, str(doc.get("name", path.stem)))
