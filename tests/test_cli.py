@@ -176,3 +176,17 @@ def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
         line = _one_error(["export", str(run), "--format", fmt, "--out", str(tmp_path / f"x.{fmt}")], capsys)
         assert "no tracked frame to export" in line
         assert not (tmp_path / f"x.{fmt}").exists()
+
+
+def test_usage_errors_are_one_line_too(capsys):
+    import pytest
+
+    from ipf_jax.cli import main
+
+    for argv, problem in ((["track", "x", "--out", "o", "--frames", "abc"], "--frames must be"),
+                          (["track", "x"], "the following arguments are required: --out"),
+                          (["gait", "x.trc", "--out", "o", "--method", "magic"], "invalid choice: 'magic'")):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+        assert e.value.code == 2 and len(err) == 1 and err[0].startswith("error: ipf-jax ") and problem in err[0], err

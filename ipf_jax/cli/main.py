@@ -51,10 +51,18 @@ def _add_module_commands(sub, argv: list[str]) -> None:
         sub.add_parser(name, help=help_text, add_help=False)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's usage errors as one ``error: ...`` line (exit 2), like every other user error:
+    the usage block of a command with 40 options buried the line that says what is wrong."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {message} (see '{self.prog} --help')\n")
+
+
 def _parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
-    ap = argparse.ArgumentParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
-                                 "analysis by Interval Particle Filtering (JAX).")
+    ap = OneLineParser(prog="ipf-jax", description="Markerless 3D motion capture and gait "
+                       "analysis by Interval Particle Filtering (JAX).")
     ap.add_argument("--version", action="version", version=f"ipf-jax {__version__}")
     ap.add_argument("--debug", action="store_true",
                     help="show the full traceback of an internal error (a bug) instead of one line")
