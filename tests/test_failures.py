@@ -390,3 +390,13 @@ def test_camera_placing_the_person_far_outside_its_image_is_named():
         check_cameras_see(foot, np.array([0.0, 0.0, 1.0]), [cam], [3], "calib.json")
     assert info.value.path == "calib.json"
     check_cameras_see(np.array([0.6, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), [cam], [1], "calib.json")
+
+
+def test_tracking_into_a_previous_run_says_it_replaces_it(base, tmp_path, capsys):
+    out = tmp_path / "run"
+    argv = ["track", str(base), *COMMON, *FILTER, "--init-pose", str(base / "init.csv"),
+            "--frames", "0:2", "--out", str(out)]
+    assert run_cli(argv, capsys) == (0, [])
+    code, lines = run_cli(argv, capsys)
+    assert code == 0 and len(lines) == 1, lines
+    assert lines[0].startswith("warning: ") and "holds a previous run (run.json, checkpoint.npz)" in lines[0]

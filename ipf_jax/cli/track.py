@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import gc
+import warnings
 from pathlib import Path
 
-from ..errors import require
+from ..errors import IPFWarning, require
 from .options import (
     add_common,
     add_tracking_options,
@@ -40,6 +41,10 @@ def run(args) -> int:
     from ..viz.overlay import overlay_writer
 
     values = check_args(args)
+    previous = [n for n in ("run.json", "checkpoint.npz") if (Path(args.out) / n).exists()]
+    if previous and not args.resume:
+        warnings.warn(f"{args.out} holds a previous run ({', '.join(previous)}): its files are "
+                      "replaced (--resume continues it instead)", IPFWarning, stacklevel=1)
     ds = open_dataset(args.dataset)
     frames = select_frames(ds.frames, values.get("frames"), where=flag("frames"))
     settings = settings_from_args(args, values)
