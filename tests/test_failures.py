@@ -400,3 +400,27 @@ def test_tracking_into_a_previous_run_says_it_replaces_it(base, tmp_path, capsys
     code, lines = run_cli(argv, capsys)
     assert code == 0 and len(lines) == 1, lines
     assert lines[0].startswith("warning: ") and "holds a previous run (run.json, checkpoint.npz)" in lines[0]
+
+
+def test_masks_that_are_all_foreground_are_skipped_like_empty_ones(base, tmp_path, capsys):
+    """A camera whose mask is nearly all foreground shows no silhouette: skipped on that frame
+    (recorded); with every camera so on every frame nothing is tracked, and the run says so."""
+    def white(path: Path) -> None:
+        cv2.imwrite(str(path), np.full(cv2.imread(str(path), cv2.IMREAD_GRAYSCALE).shape, 255, np.uint8))
+
+    ds = tmp_path / "walk"
+    shutil.copytree(base, ds)
+    white(ds / "FG2" / "image0001.png")  # one camera on one frame
+    out = tmp_path / "one"
+    code, lines = run_cli(["track", str(ds), *COMMON, *FILTER, "--init-pose", str(ds / "init.csv"),
+                           "--out", str(out)], capsys)
+    assert code == 0 and lines == []
+    run = json.loads((out / "run.json").read_text())
+    assert run["per_frame"][1]["skipped_cameras"] == ["Camera2"] and run["per_frame"][1]["status"] != "missing"
+    assert run["per_frame"][1]["mask_quality"][1][1] == 1.0  # the record keeps the mask's real share
+    for f in ds.glob("FG*/image*.png"):
+        white(f)
+    out = tmp_path / "all"
+    code, lines = run_cli(["track", str(ds), *COMMON, *FILTER, "--out", str(out)], capsys)
+    assert code == 2 and len(lines) == 1 and "nearly all foreground on every frame" in lines[0], lines
+    assert json.loads((out / "run.json").read_text())["frames"]["missing"] == N_FRAMES

@@ -78,6 +78,7 @@ def run(args) -> int:
               f"{fit['seconds']:.1f} s (initialisation: {run['init_evaluations']} evaluations)")
     print(f"wrote {', '.join(written + ['shape.json'])} to {args.out}")
     require(counts["missing"] < counts["done"], f"no frame of {ds.name} shows anyone: every camera's "
-            "mask is empty (or specks only) on every frame; check the masks' foreground threshold "
-            "or the background model (the files written say so frame by frame)", args.out)
+            "mask is empty, specks only or nearly all foreground on every frame; check the masks' "
+            "foreground threshold or the background model (run.json's mask_quality says so frame "
+            "by frame)", args.out)
     return 0

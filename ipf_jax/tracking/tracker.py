@@ -80,6 +80,22 @@ from .travel import travel_heading, window_frames
 __all__ = ["DEFAULT_FPS", "DEFAULT_RESOLUTION", "FrameView", "RunResult", "TrackSettings", "Tracker",
            "track"]
 
+#: A mask with more of its image foreground than this shows no silhouette (a background model
+#: that failed, a light switched on): that camera is skipped on that frame, like an empty one.
+#: A person filling a camera's view from head to toe covers far less (the renders: 3-8 %).
+FULL_MASK_SHARE = 0.9
+
+
+def is_full(mask: np.ndarray) -> bool:
+    """Whether more than :data:`FULL_MASK_SHARE` of the mask is foreground."""
+    return np.count_nonzero(mask) > FULL_MASK_SHARE * np.asarray(mask).size
+
+
+def without_full(mask: np.ndarray) -> np.ndarray:
+    """The mask, or an empty one in its place when it is full (:func:`is_full`)."""
+    return np.zeros(np.shape(mask), bool) if is_full(mask) else mask
+
+
 VIEW_MARGIN = 0.5  # of the image size: how far outside its image a camera may place the person
 # (feet or head cut off by the border are common; a whole body half an image away is not)
 
@@ -177,7 +193,7 @@ class Tracker:
         require(np.isfinite(fps) and fps > 0, f"frame rate must be > 0 (got {fps})")
         self.fps = float(fps)
         up = (settings.up_axis or dataset.up_axis
-              or detect_up_axis(dataset.cameras, self.read_masks(self.frames[0])))
+              or detect_up_axis(dataset.cameras, [without_full(m) for m in self.read_masks(self.frames[0])]))
         require(up in AXES, f"unknown up axis {up!r} (choose one of {', '.join(AXES)})")
         self.up_axis = up
         self.U = up_rotation(up)
@@ -229,13 +245,17 @@ class Tracker:
         masks = self.read_masks(frame)
         small = [m if s == 1.0 else resize_mask(m, c.height, c.width)
                  for m, s, c in zip(masks, self.scales, self.cameras)]
-        obs = make_observation(small)
         # one connected-components pass per mask for the rays and the quality figures (theirs
         # agree for bool masks: nonzero as uint8 is the bool mask)
         found = [blobs(m) if m.dtype == bool else None for m in small]
+        quality = frame_quality(small, [None if f is None else f[0] for f in found])
+        full = [is_full(m) for m in small]
+        if any(full):  # no silhouette in it (a failed background model): the camera sits out
+            small = [without_full(m) for m in small]
+            found = [None if f else b for f, b in zip(full, found)]
+        obs = make_observation(small)
         rays = camera_rays(small, self.cameras, found)  # None for every camera without a blob
         person = any(r is not None for r in rays)
-        quality = frame_quality(small, [None if f is None else f[0] for f in found])
         return Seen(obs, small, person, quality, rays)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
