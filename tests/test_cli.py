@@ -190,3 +190,14 @@ def test_usage_errors_are_one_line_too(capsys):
             main(argv)
         err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
         assert e.value.code == 2 and len(err) == 1 and err[0].startswith("error: ipf-jax ") and problem in err[0], err
+
+
+def test_floor_range_max_error_and_joint_lists_are_checked(tmp_path, capsys):
+    assert "within -0.5..2 m of the floor" in _one_error(
+        ["track", str(tmp_path), "--out", str(tmp_path / "r"), "--floor-range=5,6"], capsys)
+    assert "--max-error must be a positive number" in _one_error(
+        ["calibrate", "--board", "9x6", "--square", "0.025", "--camera", "a=x*.jpg", "--max-error", "-1",
+         "--out", str(tmp_path / "c.json")], capsys)
+    assert "--joints ',' names no joint" in _one_error(
+        ["eval", str(tmp_path / "a.csv"), str(tmp_path / "b.csv"), "--out", str(tmp_path / "e"),
+         "--joints", ","], capsys)

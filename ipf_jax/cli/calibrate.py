@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 from ..data.runfiles import check_output_file
@@ -83,6 +84,8 @@ def calibrate(args) -> tuple[dict, list[str]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    require(math.isfinite(args.max_error) and args.max_error > 0,
+            f"--max-error must be a positive number of pixels, got {args.max_error}")
     out = check_output_file(Path(args.out))  # before the calibration, not after it
     doc, notes = calibrate(args)
     tmp = out.with_name(out.name + ".tmp")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..analysis.evaluation.metrics import ALIGN_MODES
+from ..errors import require
 from .options import add_common
 
 
@@ -49,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
     from ..analysis.evaluation.report import write_outputs
     from ..body.model import LIMB_JOINTS
 
-    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints is not None else None
+    require(joints is None or joints, f"--joints {args.joints!r} names no joint")
     ev, _, truth = evaluate_files(args.estimate, args.truth, joints=joints, align=args.align)
     files = write_outputs(ev, truth, args.out, plots=not args.no_plots,
                           extra={"estimate": str(args.estimate), "truth": str(args.truth)})

@@ -91,6 +91,8 @@ def _shape(v):
 
 def _range(v):
     require(len(v) == 2 and v[0] <= v[1], "must be LO,HI with LO <= HI")
+    require(-0.5 <= v[0] and v[1] <= 2.0, "the lowest point of the body must stay within -0.5..2 m "
+            "of the floor (metres, not centimetres?)")
 
 
 def _filter_default(name: str, key: str) -> str:
