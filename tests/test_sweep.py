@@ -90,6 +90,8 @@ def test_cells_are_the_product_of_value_lists_with_stable_ids(scene):
     ('[[filter]]\nname = "ukf"\n', "name must be one of ipf, fipf, apf, sir"),
     ('[[filter]]\nname = "sir"\nresolution = 8\n', "resolution must be 16..2048"),
     ('[[filter]]\nname = "sir"\nframes = "0-4"\n', "frames must be "),
+    ('[[filter]]\nname = "sir"\nframes = "5:2"\n', "selects no frame"),
+    ('[[filter]]\nname = "sir"\nseed = 99999999999999999999\n', "seed"),
     ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "nowhere"\n', "dataset folder not found"),
     ('[[filter]]\nname = "sir"\n[eval]\nalign = "affine"\n', "align must be none or rigid"),
     ('[[filter]\nname = "sir"\n', "not a readable TOML file"),

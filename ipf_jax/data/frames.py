@@ -12,7 +12,7 @@ import warnings
 from pathlib import Path
 from typing import Sequence
 
-from ..errors import IPFError, IPFWarning
+from ..errors import IPFError, IPFWarning, require
 
 FORMS = '"A", "A:B", "A:" or "A:B:S" (frame numbers, B excluded)'
 
@@ -32,6 +32,8 @@ def parse_frames(value, where: str = "frames", path: str | Path | None = None) -
         if len(parts) == 1 and parts[0] is not None:
             return slice(parts[0], parts[0] + 1)
         if 2 <= len(parts) <= 3 and (len(parts) < 3 or parts[2] is None or parts[2] > 0):
+            require(parts[0] is None or parts[1] is None or parts[1] > parts[0],
+                    f"{where} {value!r} selects no frame (B is excluded: it must be above A)", path)
             return slice(*parts)
     forms = FORMS + ("" if where.startswith("--") else " or [A, B]")
     raise IPFError(f"{where} must be {forms}, got {value!r}", path)
