@@ -267,7 +267,7 @@ def bench_start(data: Path, frames: int = 12, *, seed: int = 0, progress: bool =
             "recovery": {"attempts": run["recovery"]["attempts"],
                          "evaluations": run["recovery"]["evaluations"], "seconds": sec["recovery"]},
             "tracked_frames": {"count": len(tracked), "evaluations_per_frame": run["evaluations_per_frame"],
-                               "seconds_mean": round(float(np.mean(tracked)), 4) if tracked else None,
+                               "seconds_mean": sec["per_tracked_frame_mean"],
                                "seconds_median": round(float(np.median(tracked)), 4) if tracked else None},
             "peak_rss_mb": round(_peak_mb(), 1), "load_average": load, **_common()}
 

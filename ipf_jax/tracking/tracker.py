@@ -251,7 +251,7 @@ class Tracker:
         quality = frame_quality(small, [None if f is None else f[0] for f in found])
         full = [is_full(m) for m in small]
         if any(full):  # no silhouette in it (a failed background model): the camera sits out
-            small = [without_full(m) for m in small]
+            small = [np.zeros(m.shape, bool) if f else m for m, f in zip(small, full)]
             found = [None if f else b for f, b in zip(full, found)]
         obs = make_observation(small)
         rays = camera_rays(small, self.cameras, found)  # None for every camera without a blob
@@ -584,8 +584,9 @@ class Tracker:
             joints_csv.close()
             poses_csv.close()
         doc = self.run_doc(state, time.perf_counter() - t_start)
-        if self.shape_doc(state) != shape_written:  # not rewritten as it was written above
-            write_json_atomic(out_dir / "shape.json", self.shape_doc(state))
+        shape = self.shape_doc(state)
+        if shape != shape_written:  # not rewritten as it was written above
+            write_json_atomic(out_dir / "shape.json", shape)
         write_json_atomic(out_dir / "run.json", {**doc, "per_frame": records.update(state.records)})
         poses = read_table(out_dir / "poses.csv", "poses file")[1][:, 2:]
         return RunResult(out_dir, self.frames, poses, read_joints_csv(out_dir / "joints.csv").points, doc)
