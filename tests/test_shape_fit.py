@@ -196,6 +196,44 @@ def test_fit_recovers_long_legs_on_a_self_rendered_walk():
     assert res.evaluations > 0 and res.doc["evaluations"] == res.evaluations
 
 
+def test_wider_shoulders_are_scored_with_the_arms_moved_with_them():
+    """Self-rendered: a body with shoulders 15 % wider than the template, seen in poses fitted
+    with the template. Carried over with the elbows and wrists held where the narrow body had
+    them, the true body scores below its own poses; with the angles kept as well
+    (``carry_angles``, the default) the fit scores it with exactly those poses."""
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.tracking.shape_fit import _Objective
+
+    cams = syn.ring_cameras(3, width=160, height=120, focal_px=150)
+    template = default_shape(1.75)
+    theta = np.zeros(P.NUM_GROUPS)
+    theta[P.GROUP_NAMES.index("shoulders")] = np.log(1.15)
+    wide = P.build(template.values, theta)
+    true = BodyShape(wide, float(P.stature(wide)))
+    q_true = syn.procedural_walk(6, shape=true)
+    masks = syn.render_masks(q_true, true, cams)
+    scorer = Scorer(cams, template, U, chunk=64)
+    limits = load_limits("default")
+    frames, direct = [], []
+    for f in (1, 4):
+        fn = shape_measure(scorer, make_observation(list(masks[f])))
+        q0 = place_on_floor(q_true[f], template.values, U)[None]  # the true angles, narrow body
+        frames.append(FramePoses(f, fn, q0, fn(q0, template.values[None].astype(np.float32))))
+        direct.append(fn(limits.clip(q_true[f][None]), wide[None].astype(np.float32))[0])
+    poses = [fr.particles for fr in frames]
+    scores = {}
+    for carry in (False, True):
+        obj = _Objective(frames, template, U, limits, None, ShapeFitSettings(carry_angles=carry))
+        got, placed = obj.score(wide[None], poses, template.values)
+        scores[carry] = float(got[0])
+        assert obj.evaluations == (2 if carry else 1) * len(frames)
+    assert scores[True] > scores[False] + 0.05 * abs(scores[True]), scores
+    assert scores[True] == pytest.approx(np.mean(direct), rel=0.02), (scores, direct)
+    # the returned poses are the ones scored: the better carry-over of each
+    for fr, p in zip(frames, placed):
+        assert np.allclose(p[0], place_on_floor(fr.particles[0], wide, U), atol=1e-6)
+
+
 # -- shape files ----------------------------------------------------------------------------------
 def _shape_file(tmp_path, edit=None, name="shape.json"):
     doc = shape_doc(default_shape(1.80), "test")

@@ -16,7 +16,9 @@ likelihood, without derivatives:
                kept poses, each carried over to that candidate's body: moved along the up axis
                so that its lowest point touches the floor (longer legs lift the pelvis), its limb
                angles moved so that the knees, feet, elbows and wrists stay where the current
-               body had them (ipf_jax.geometry.retarget), on the floor again
+               body had them (ipf_jax.geometry.retarget), on the floor again; each pose also
+               with its joint angles kept (its limbs moving with a changed breadth), the
+               better of the two counted
     final compass search of every frame's poses with the best shape
 
 Different poses separate the lengths (a bent knee splits thigh and shank, a swinging arm
@@ -89,6 +91,11 @@ class ShapeFitSettings(NamedTuple):
     body with its limb joints kept in place (:mod:`ipf_jax.geometry.retarget`); 0 keeps the
     joint angles, as the fit did before (a shorter thigh then moved the knee and foot of a
     swinging leg).
+    carry_angles : also score every kept pose with its joint angles kept (on the floor) and
+    count the better of the two carry-overs per pose. With the limb joints held in place alone,
+    wider shoulders kept the elbows and wrists where the narrower body had put them, so the fit
+    could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
+    docs/shape_fit.md).
     """
 
     frames: int = 8  # the default of --shape-frames (measured: docs/shape_fit.md)
@@ -102,6 +109,7 @@ class ShapeFitSettings(NamedTuple):
     prior: float = 1e-3
     split_prior: float = 1e-2
     retarget_iterations: int = 3
+    carry_angles: bool = True
 
 
 #: The lighter initialisation of the other K - 1 frames of pass 1 (shape held, so one height).
@@ -254,15 +262,19 @@ class _Objective:
             p = p + self.s.split_prior * ((lf[:, a] - lf[:, b]) / self.half[a]) ** 2
         return abs(self.start) * p
 
-    def transfer(self, values: np.ndarray, poses: list[np.ndarray], base: np.ndarray) -> list[np.ndarray]:
+    def transfer(self, values: np.ndarray, poses: list[np.ndarray],
+                 base: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray] | None]:
         """Each frame's (M, D) poses, fitted with the body ``base`` (P,), carried over to each of
         the (L, P) bodies: on the floor, the limb angles moved so that the knees, ankles, feet,
         elbows and wrists stay where they were (:func:`ipf_jax.geometry.retarget.retarget`;
-        ``retarget_iterations = 0`` keeps the angles). Returns per frame (L * M, D), body-major."""
+        ``retarget_iterations = 0`` keeps the angles). Returns per frame (L * M, D), body-major,
+        and with ``carry_angles`` the same poses with their angles kept (else None)."""
         L = len(values)
         qq = np.concatenate([np.repeat(q[None], L, 0).reshape(L * len(q), NUM_DOF) for q in poses])
         vv = np.concatenate([np.repeat(values, len(q), 0) for q in poses])
         placed = place_on_floor_many(qq, vv, self.U)
+        splits = np.cumsum([L * len(q) for q in poses])[:-1]
+        kept = np.split(self.limits.clip(placed), splits) if self.s.carry_angles else None
         if self.s.retarget_iterations > 0:
             targets = []
             for q in poses:
@@ -272,18 +284,30 @@ class _Objective:
                               iterations=self.s.retarget_iterations)
             placed = place_on_floor_many(placed, vv, self.U)
         placed = self.limits.clip(placed)
-        return np.split(placed, np.cumsum([L * len(q) for q in poses])[:-1])
+        return np.split(placed, splits), kept
 
     def score(self, values: np.ndarray, poses: list[np.ndarray],
               base: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """(L, P) bodies -> (L,) mean over frames of each body's best pose (the frames' poses,
-        fitted with ``base``, carried over: :meth:`transfer`); the carried poses."""
+        fitted with ``base``, carried over: :meth:`transfer`, each the better of its two
+        carry-overs with ``carry_angles``); the carried poses."""
         total = np.zeros(len(values))
         placed_all = []
         L = len(values)
-        for fr, placed in zip(self.frames, self.transfer(values, poses, base)):
-            w = fr.measure(placed, np.repeat(values, len(placed) // L, 0)).reshape(L, -1)
+        carried, kept = self.transfer(values, poses, base)
+        for k, (fr, placed) in enumerate(zip(self.frames, carried)):
+            n = len(placed)
+            bodies = np.repeat(values, n // L, 0)
+            if kept is not None:  # both carry-overs in one call; per pose the better one
+                placed, bodies = np.concatenate([placed, kept[k]]), np.concatenate([bodies, bodies])
+            w = fr.measure(placed, bodies)
             self.evaluations += len(placed)
+            if kept is not None:
+                w_kept = np.where(np.isnan(w[n:]), -np.inf, w[n:])
+                better = w_kept > np.where(np.isnan(w[:n]), -np.inf, w[:n])
+                placed = np.where(better[:, None], placed[n:], placed[:n])
+                w = np.fmax(w[:n], w[n:])
+            w = w.reshape(L, -1)
             total += np.where(np.isnan(w), 0.0, w).max(1)
             placed_all.append(placed.reshape(L, -1, NUM_DOF))
         return total / len(self.frames), placed_all
