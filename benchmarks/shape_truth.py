@@ -4,7 +4,7 @@
 
 For each set: thigh, shank, hip spacing, shoulder width, upper arm and forearm of
 ``ground_truth.csv`` (mean over frames, left and right averaged), and, with ``--runs DIR``, the
-same lengths of the shape each run found (``DIR/runs/SET/run.json`` -> ``shape``), and their
+same lengths of the shape each run found (``DIR/runs/SET/run.json``, or the first ``SET@seedN``, -> ``shape``), and their
 difference. Prints a markdown table.
 """
 from __future__ import annotations
@@ -62,7 +62,10 @@ def main(argv=None) -> int:
     for name in set_names(args.sets, root):
         truth = truth_lengths(root / name / "ground_truth.csv")
         row = {"set": name, "truth_mm": {k: 1000 * v for k, v in truth.items()}}
-        run = Path(args.runs or "") / "runs" / name / "run.json"
+        runs = Path(args.runs or "") / "runs"
+        # one seed: runs/SET; several (--seeds): runs/SET@seedN, of which the first is read
+        run = next((p for p in [runs / name / "run.json", *sorted(runs.glob(f"{name}@seed*/run.json"))]
+                    if p.is_file()), runs / name / "run.json")
         if args.runs and run.is_file():
             doc = json.loads(run.read_text())
             found = shape_lengths(doc["shape"]["params"])

@@ -234,6 +234,18 @@ def test_wider_shoulders_are_scored_with_the_arms_moved_with_them():
         assert np.allclose(p[0], place_on_floor(fr.particles[0], wide, U), atol=1e-6)
 
 
+def test_angles_are_carried_over_with_three_cameras_or_more():
+    from ipf_jax.tracking.shape_fit import CARRY_ANGLES_MIN_VIEWS, for_views
+
+    assert CARRY_ANGLES_MIN_VIEWS == 3
+    assert not for_views(ShapeFitSettings(), 1).carry_angles
+    assert not for_views(ShapeFitSettings(), 2).carry_angles
+    assert for_views(ShapeFitSettings(), 3).carry_angles
+    assert for_views(ShapeFitSettings(), 4).carry_angles
+    assert not for_views(ShapeFitSettings(carry_angles=False), 4).carry_angles
+    assert for_views(ShapeFitSettings(), 2)._replace(carry_angles=True) == ShapeFitSettings()
+
+
 # -- shape files ----------------------------------------------------------------------------------
 def _shape_file(tmp_path, edit=None, name="shape.json"):
     doc = shape_doc(default_shape(1.80), "test")

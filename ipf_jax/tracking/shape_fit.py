@@ -92,9 +92,10 @@ class ShapeFitSettings(NamedTuple):
     joint angles, as the fit did before (a shorter thigh then moved the knee and foot of a
     swinging leg).
     carry_angles : also score every kept pose with its joint angles kept (on the floor) and
-    count the better of the two carry-overs per pose. With the limb joints held in place alone,
-    wider shoulders kept the elbows and wrists where the narrower body had put them, so the fit
-    could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
+    count the better of the two carry-overs per pose, when at least
+    :data:`CARRY_ANGLES_MIN_VIEWS` cameras see the person. With the limb joints held in place
+    alone, wider shoulders kept the elbows and wrists where the narrower body had put them, so
+    the fit could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
     docs/shape_fit.md).
     """
 
@@ -110,6 +111,19 @@ class ShapeFitSettings(NamedTuple):
     split_prior: float = 1e-2
     retarget_iterations: int = 3
     carry_angles: bool = True
+
+
+#: Fewest cameras for ``carry_angles``. Measured on the visible renders (docs/shape_fit.md): with
+#: 4 cameras it lowered the 10 walks' error over seeds 0/1/2 (29.4 -> 27.5 mm); with 2 it raised
+#: the 2-camera walks' in 5 of 6 runs (41 -> 51 mm on the mean: arms thickened by the fit and lost
+#: by the tracker), with 1 camera 6 of the 8 walks'. 3 cameras are not measured.
+CARRY_ANGLES_MIN_VIEWS = 3
+
+
+def for_views(settings: "ShapeFitSettings", cameras: int) -> "ShapeFitSettings":
+    """``settings`` for a recording with ``cameras`` cameras: ``carry_angles`` needs
+    :data:`CARRY_ANGLES_MIN_VIEWS` of them."""
+    return settings._replace(carry_angles=settings.carry_angles and cameras >= CARRY_ANGLES_MIN_VIEWS)
 
 
 #: The lighter initialisation of the other K - 1 frames of pass 1 (shape held, so one height).
@@ -461,7 +475,8 @@ def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights:
     # the fit first grows the windows to the largest body (then they stay): its compass steps'
     # 4-127 poses get small compiled calls from here on
     scorer.set_small_chunks(SMALL_CHUNKS)
-    result = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
+    result = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m,
+                       settings=for_views(settings, len(scene.cameras)), seed=seed)
     first = result.frames[0]
     doc = dict(result.doc, passes=1, frame_init_evaluations=int(evaluations),
                frame_init_seconds=round(init_seconds, 3), skipped_frames=skipped,
@@ -488,7 +503,8 @@ def refit_from_track(scene: Scene, tracked: dict[int, np.ndarray], shape: BodySh
         w = fn(q, np.broadcast_to(np.asarray(shape.values, np.float32), (1, len(shape.values))))
         fits.append(FramePoses(f, fn, q, w))
     scorer.set_small_chunks(SMALL_CHUNKS)  # as in calibrate_at_start
-    res = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m, settings=settings, seed=seed)
+    res = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m,
+                    settings=for_views(settings, len(scene.cameras)), seed=seed)
     return res._replace(doc=dict(res.doc, passes=2, evaluations=res.evaluations))
 
 
