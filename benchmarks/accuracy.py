@@ -23,7 +23,9 @@ over seeds and sets. ``accuracy.json`` records the library versions and the proc
 
 Set groups: ``walks4`` (every walk, 4 cameras, clean and noisy), ``walks4clean``, ``sts4``
 (sit-to-stand, 4 cameras), ``fewcams`` (every 1- and 2-camera set), ``all``; or a comma list of
-groups and set names (``walks4,sts4``).
+groups and set names (``walks4,sts4``). ``walks3`` (or a name ``SET_3cam``): the 4-camera walks
+with their last camera left out, built under ``DIR/derived`` from links to the 4-camera set (no
+visible render has three cameras).
 """
 from __future__ import annotations
 
@@ -53,15 +55,43 @@ STS = ("sub4_sts", "sub4_sts_weaklegs")
 
 def set_names(spec: str, root: Path) -> list[str]:
     have = sorted(p.name for p in root.iterdir() if (p / "ground_truth.csv").is_file())
+    have += [d for n in have if n.endswith("_4cam") for d in [n[:-len("_4cam")] + "_3cam"] if d not in have]
     four = lambda motions, noise=("clean", "noisy"): [f"{m}_{n}_4cam" for m in motions for n in noise]  # noqa
     groups = {"walks4": four(WALKS), "walks4clean": four(WALKS, ("clean",)), "sts4": four(STS),
-              "fewcams": [n for n in have if not n.endswith("_4cam")], "all": have}
+              "walks3": [n[:-len("_4cam")] + "_3cam" for n in four(WALKS)],
+              "fewcams": [n for n in have if n.endswith(("_1cam", "_2cam"))],
+              "all": [n for n in have if not n.endswith("_3cam")]}
     names = list(dict.fromkeys(n for item in spec.split(",") if item.strip()
                                for n in groups.get(item.strip(), [item.strip()])))
     missing = [n for n in names if n not in have]
     if missing:
         sys.exit(f"error: unknown set(s) {', '.join(missing)} (have: {', '.join(have)})")
     return names
+
+
+def three_camera_set(name: str, root: Path, out: Path) -> Path:
+    """Build ``SET_3cam`` (``SET_4cam`` without its last camera) under ``out/derived`` from links;
+    returns that folder (the root to track it from)."""
+    if (root / name / "ground_truth.csv").is_file():  # a real 3-camera set
+        return root
+    src, derived = root / (name[:-len("_3cam")] + "_4cam"), out / "derived"
+    dst = derived / name
+    if not dst.is_dir():
+        dst.mkdir(parents=True)
+        for f in ("ground_truth.csv", "ground_truth_extra.csv", "meta.json", "visibility.csv",
+                  "FG1", "FG2", "FG3"):
+            if (src / f).exists():
+                (dst / f).symlink_to((src / f).resolve())
+        if (src / "dataset.json").is_file():  # an ipf-jax dataset: the cameras are listed
+            doc = json.loads((src / "dataset.json").read_text())
+            doc["cameras"] = doc["cameras"][:3]
+            (dst / "dataset.json").write_text(json.dumps(doc, indent=1))
+            (dst / "CALIB").symlink_to((src / "CALIB").resolve())
+        else:  # bodytrack's layout: CALIB/CameraK.cal with FGK
+            (dst / "CALIB").mkdir()
+            for k in (1, 2, 3):
+                (dst / "CALIB" / f"Camera{k}.cal").symlink_to((src / "CALIB" / f"Camera{k}.cal").resolve())
+    return derived
 
 
 def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None,
@@ -207,7 +237,8 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for seed, name in ((k, n) for k in seeds for n in set_names(args.sets, root)):
-        row = run_set(name, root, out, [*args.track_args, "--seed", str(seed)], args.python_path,
+        src = three_camera_set(name, root, out) if name.endswith("_3cam") else root
+        row = run_set(name, src, out, [*args.track_args, "--seed", str(seed)], args.python_path,
                       name if len(seeds) == 1 else f"{name}@seed{seed}")
         row["seed"] = seed
         rows.append(row)
