@@ -116,7 +116,9 @@ class ShapeFitSettings(NamedTuple):
 #: Fewest cameras for ``carry_angles``. Measured on the visible renders (docs/shape_fit.md): with
 #: 4 cameras it lowered the 10 walks' error over seeds 0/1/2 (29.4 -> 27.5 mm); with 2 it raised
 #: the 2-camera walks' in 5 of 6 runs (41 -> 51 mm on the mean: arms thickened by the fit and lost
-#: by the tracker), with 1 camera 6 of the 8 walks'. 3 cameras are not measured.
+#: by the tracker), with 1 camera 6 of the 8 walks'. With 3 (the 4-camera walks without one:
+#: ``benchmarks/accuracy.py --sets walks3``) it lowered the mean over seeds 0/1/2 (33.8 -> 32.4 mm,
+#: 17 of 30 runs) but not the legs' offsets (19.8 -> 21.5).
 CARRY_ANGLES_MIN_VIEWS = 3
 
 
