@@ -92,8 +92,8 @@ class ShapeFitSettings(NamedTuple):
     joint angles, as the fit did before (a shorter thigh then moved the knee and foot of a
     swinging leg).
     carry_angles : also score every kept pose with its joint angles kept (on the floor) and
-    count the better of the two carry-overs per pose, when at least
-    :data:`CARRY_ANGLES_MIN_VIEWS` cameras see the person. With the limb joints held in place
+    count the better of the two carry-overs per pose, when the recording has at least
+    :data:`CARRY_ANGLES_MIN_VIEWS` cameras (:func:`for_views`). With the limb joints held in place
     alone, wider shoulders kept the elbows and wrists where the narrower body had put them, so
     the fit could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
     docs/shape_fit.md).
