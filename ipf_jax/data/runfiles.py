@@ -204,7 +204,7 @@ def check_output_file(path: Path) -> Path:
     path = Path(path)
     require(str(path) not in ("", "."), "the output file name is empty")
     require(not path.is_dir(), "the output is a folder: give a file name", path)
-    check_writable(path.parent if str(path.parent) else Path("."))
+    check_writable(path.parent)  # "." for a bare file name
     return path
 
 

@@ -67,9 +67,10 @@ def layer_scales(settings: APFSettings) -> np.ndarray:
     return noise_decay(settings) ** np.arange(settings.layers)
 
 
-def effective_fraction(w: np.ndarray) -> float:
-    """(sum w)^2 / (N sum w^2) of (N,) non-negative weights: 1 all equal, 1/N one survivor."""
-    s2 = float(np.sum(w * w))
+def effective_fraction(w: np.ndarray, scratch: np.ndarray | None = None) -> float:
+    """(sum w)^2 / (N sum w^2) of (N,) non-negative weights: 1 all equal, 1/N one survivor.
+    ``scratch``: an (N,) buffer for ``w * w`` (a caller evaluating it many times)."""
+    s2 = float(np.sum(np.multiply(w, w, out=scratch)))
     return float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0
 
 
@@ -97,11 +98,8 @@ def anneal_beta(likelihood: np.ndarray, target: float, *, iters: int = 64) -> fl
     live_fraction = live.mean()
     w, w2 = np.empty_like(lw), np.empty_like(lw)  # one pair of buffers for every evaluation
 
-    def fraction(beta: float) -> float:
-        # effective_fraction(np.exp(beta * lw)), the same operations without new arrays
-        np.exp(np.multiply(beta, lw, out=w), out=w)
-        s2 = float(np.sum(np.multiply(w, w, out=w2)))
-        return live_fraction * (float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0)
+    def fraction(beta: float) -> float:  # effective_fraction(np.exp(beta * lw)), without new arrays
+        return live_fraction * effective_fraction(np.exp(np.multiply(beta, lw, out=w), out=w), w2)
 
     if fraction(0.0) <= target or lw.min() == 0.0:
         return 0.0
