@@ -340,12 +340,35 @@ def test_compiled_draws_are_the_eager_draws_bit_for_bit():
     u, z = resample_draws(key, (300, NUM_DOF))
     assert float(u) == float(jax.random.uniform(k1, ()))
     assert np.asarray(z).tobytes() == np.asarray(jax.random.normal(k2, (300, NUM_DOF))).tobytes()
-    for layer, k in enumerate(apf.layer_keys(key, 5)):
-        assert np.array_equal(k, jax.random.fold_in(key, layer))
+    for layer, (u, z) in enumerate(apf.layer_draws(key, 5, (300, NUM_DOF))):
+        k1, k2 = jax.random.split(jax.random.fold_in(key, layer))
+        assert float(u) == float(jax.random.uniform(k1, ()))
+        assert np.asarray(z).tobytes() == np.asarray(jax.random.normal(k2, (300, NUM_DOF))).tobytes()
     for frame in (0, 1, 17, 4096):
         for salt in (0, 1, 2):
             want = jax.random.fold_in(jax.random.fold_in(key, frame), salt)
             assert np.array_equal(frame_key(key, np.uint32(frame), np.uint32(salt)), want)
+
+
+@pytest.mark.parametrize("name", ["ipf", "fipf", "apf", "sir"])
+def test_draws_given_ahead_are_the_draws_of_the_step(name):
+    """``step(key, ..., drawn=f.draws(key))`` sees exactly the particles of ``step(key, ...)``;
+    draws of the wrong shape (fewer than M distinct particles to start from) are drawn again."""
+    f = registry.make(name, {}, LIMITS, FPS, 600)
+    rng = np.random.default_rng(5)
+    particles = LIMITS.clip(rng.normal(0, 0.3, (80, NUM_DOF)))
+    weights = rng.uniform(0, 1, 80)
+    key = jax.random.PRNGKey(9)
+
+    def seen_by(state, **drawn):
+        seen = []
+        f.step(key, state, lambda x: seen.append(x) or np.ones(len(x)), **drawn)
+        return b"".join(x.tobytes() for x in seen)
+
+    state = f.init(particles, weights)
+    assert seen_by(state, drawn=f.draws(key)) == seen_by(state)
+    few = f.init(particles[:1], weights[:1])  # one particle: fewer than M kept
+    assert seen_by(few, drawn=f.draws(key)) == seen_by(few)
 
 
 def _ipf_step_by_definition(settings, limits, key, particles, weights):

@@ -55,6 +55,36 @@ def test_same_seed_same_files(scene, tmp_path):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
 
 
+@pytest.mark.parametrize("name,options", [("ipf", {"top_m": 4}), ("fipf", {"top_m": 2, "points_per_dof": 2}),
+                                          ("apf", {"particles": 200, "layers": 2})])
+def test_draws_made_ahead_are_used_and_change_nothing(scene, tmp_path, name, options):
+    """The tracker dispatches the next frame's draws while it writes files: every tracked frame's
+    step gets them, and the files are byte for byte those of a run that draws inside the step."""
+    from ipf_jax.tracking.tracker import Tracker
+
+    cams, q, masks = scene
+    ds = MemoryDataset(cams, masks, fps=20.0)
+    settings = SETTINGS._replace(filter=name, filter_options=options)
+    given = []
+
+    def watch(f):
+        def step(key, state, measure, **drawn):
+            given.append("drawn" in drawn)
+            return f.step(key, state, measure, **drawn)
+        return f._replace(step=step)
+
+    ahead = Tracker(ds, settings)
+    ahead.filter_hook = watch
+    ahead.run(tmp_path / "ahead", progress=False)
+    assert given == [True] * 4  # frames 1, 2, 4, 5 (3 is missing: 4's are drawn after it)
+    inside = Tracker(ds, settings)
+    inside.filter_hook = lambda f: watch(f._replace(draws=None))
+    inside.run(tmp_path / "inside", progress=False)
+    assert given[4:] == [False] * 4
+    for file in ("joints.csv", "poses.csv"):
+        assert (tmp_path / "ahead" / file).read_bytes() == (tmp_path / "inside" / file).read_bytes()
+
+
 class Crash(Exception):
     pass
 

@@ -102,7 +102,7 @@ class StepLog(NamedTuple):
 def recording(f: Filter, scorer, log: list[StepLog]) -> Filter:
     """``f`` with a step that appends a :class:`StepLog` to ``log`` (same results otherwise)."""
 
-    def step(rng_key, state, measure):
+    def step(rng_key, state, measure, **drawn):
         spent = [0.0]
 
         def timed(particles, *args):
@@ -112,7 +112,7 @@ def recording(f: Filter, scorer, log: list[StepLog]) -> Filter:
             return w
 
         n0, t0, c0 = scorer.evaluations, time.perf_counter(), time.process_time()
-        state, info = f.step(rng_key, state, timed)
+        state, info = f.step(rng_key, state, timed, **drawn)
         log.append(StepLog(info, time.perf_counter() - t0, time.process_time() - c0, spent[0],
                            scorer.evaluations - n0))
         return state, info

@@ -25,6 +25,7 @@ import jax
 import numpy as np
 
 from ..body.limits import Limits
+from ..body.model import NUM_DOF
 from ..errors import require
 from .base import (
     Filter,
@@ -33,6 +34,7 @@ from .base import (
     init_state,
     rate_std,
     resample_diffuse,
+    resample_draws,
     summarise,
 )
 
@@ -127,10 +129,11 @@ def annealed_weights(likelihood: np.ndarray, target: float) -> tuple[np.ndarray,
     return np.exp(beta * (lw - lw[np.isfinite(lw)].max())), beta
 
 
-@functools.partial(jax.jit, static_argnames="layers")
-def layer_keys(rng_key: jax.Array, layers: int) -> tuple[jax.Array, ...]:
-    """``fold_in(rng_key, layer)`` of every layer, in one compiled call."""
-    return tuple(jax.random.fold_in(rng_key, layer) for layer in range(layers))
+@functools.partial(jax.jit, static_argnames=("layers", "shape"))
+def layer_draws(rng_key: jax.Array, layers: int, shape: tuple[int, int]) -> tuple:
+    """Every layer's resampling draws, ``resample_draws(fold_in(rng_key, layer), shape)``, in one
+    compiled call (dispatched ahead of the frame by the tracker: see ``Filter.draws``)."""
+    return tuple(resample_draws(jax.random.fold_in(rng_key, layer), shape) for layer in range(layers))
 
 
 def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
@@ -140,12 +143,15 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
     scales = layer_scales(settings)  # (L,)
     n, layers = settings.particles, settings.layers
 
-    def step(rng_key: jax.Array, state: FilterState, measure):
+    def draws(rng_key: jax.Array) -> tuple:
+        return layer_draws(rng_key, layers, (n, NUM_DOF))
+
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
         x = state.particles
-        keys = layer_keys(rng_key, layers)
+        drawn = draws(rng_key) if drawn is None else drawn  # every layer's: shapes never change
         pi, _ = annealed_weights(state.weights, settings.survival)
         for layer, scale in enumerate(scales):
-            x = resample_diffuse(keys[layer], x, pi, std * scale, limits, n)  # (N, D)
+            x = resample_diffuse(None, x, pi, std * scale, limits, n, drawn[layer])  # (N, D)
             likelihood = np.asarray(measure(x), float)
             pi, _ = annealed_weights(likelihood, settings.survival)
         info = summarise(x, likelihood, n * layers)
@@ -154,4 +160,4 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
     params = {"particles": n, "layers": layers, "survival": settings.survival,
               "noise_scale": settings.noise_scale,
               "noise_decay": noise_decay(settings)}
-    return Filter("apf", init_state, step, n * layers, params, (n,) * layers)
+    return Filter("apf", init_state, step, n * layers, params, (n,) * layers, draws)

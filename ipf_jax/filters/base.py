@@ -39,14 +39,21 @@ class Filter(NamedTuple):
     calls : the particle count of each measure call of one frame, in order (their sum is
     ``evaluations_per_frame``); the tracker sizes the scorer's compiled calls from them
     (:func:`ipf_jax.likelihood.scorer.pick_chunk`).
+
+    draws : optional ``draws(rng_key)``: the step's random numbers for ``rng_key``, dispatched
+    ahead (device arrays, computed while the host does other work: the tracker asks for the next
+    frame's while it writes this frame's files and reads the next masks). A filter that has it
+    takes them as ``step(rng_key, state, measure, drawn=...)`` and uses them when their shapes are
+    the ones it needs, else draws again: the same numbers either way, bit for bit.
     """
 
     name: str
     init: Callable[[np.ndarray, np.ndarray], FilterState]
-    step: Callable[[jax.Array, FilterState, Measure], tuple[FilterState, FilterInfo]]
+    step: Callable[..., tuple[FilterState, FilterInfo]]  # (rng_key, state, measure[, drawn=])
     evaluations_per_frame: int
     params: dict
     calls: tuple[int, ...] = ()
+    draws: Callable[[jax.Array], object] | None = None
 
 
 def init_state(particles: np.ndarray, weights: np.ndarray) -> FilterState:
@@ -124,16 +131,18 @@ def default_noise_rates() -> np.ndarray:
     return np.array([rates[n] for n in DOF_NAMES])
 
 
-def resample_diffuse(rng_key: jax.Array, particles: np.ndarray, weights: np.ndarray, std: np.ndarray,
-                     limits: Limits, num: int | None = None) -> np.ndarray:
+def resample_diffuse(rng_key: jax.Array | None, particles: np.ndarray, weights: np.ndarray,
+                     std: np.ndarray, limits: Limits, num: int | None = None,
+                     drawn: tuple[jax.Array, jax.Array] | None = None) -> np.ndarray:
     """Systematic resampling by ``weights`` then Gaussian diffusion of every DOF, clipped.
 
-    The shared prediction of SIR and each APF layer. particles (N, D) -> (num, D).
+    The shared prediction of SIR and each APF layer. particles (N, D) -> (num, D). ``drawn``:
+    ``resample_draws(rng_key, (num, D))`` made already (then ``rng_key`` is not used).
     """
     from .selection import systematic_at
 
     num = len(particles) if num is None else num
-    u, z = resample_draws(rng_key, (num, particles.shape[1]))
+    u, z = drawn if drawn is not None else resample_draws(rng_key, (num, particles.shape[1]))
     idx = systematic_at(float(u), weights, num)
     return limits.clip(particles[idx] + np.asarray(z, np.float64) * std)
 

@@ -172,11 +172,13 @@ def _stages(settings: FIPFSettings, fps: float) -> list[_Stage]:
     return out
 
 
-@functools.partial(jax.jit, static_argnames="shapes")
-def _standard_normals(keys: jax.Array, shapes: tuple) -> tuple:
-    """A frame's draws in one compiled call: ``jax.random.normal(keys[i], shape)`` for each
-    ``(i, shape)`` of ``shapes``, bit for bit what separate calls give (one dispatch, not 11)."""
-    return tuple(jax.random.normal(keys[i], s, dtype=jnp.float32) for i, s in shapes)
+@functools.partial(jax.jit, static_argnames=("n_keys", "shapes"))
+def _split_and_draw(rng_key: jax.Array, n_keys: int, shapes: tuple) -> tuple:
+    """A frame's keys and draws in one compiled call: ``keys = jax.random.split(rng_key, n_keys)``
+    and ``jax.random.normal(keys[i], shape)`` for each ``(i, shape)`` of ``shapes``, bit for bit
+    what the eager calls give (one dispatch, not 12)."""
+    keys = jax.random.split(rng_key, n_keys)
+    return keys, tuple(jax.random.normal(keys[i], s, dtype=jnp.float32) for i, s in shapes)
 
 
 def _children(keys: jax.Array, i: int, kept: np.ndarray, stage: _Stage, scale: float,
@@ -203,16 +205,26 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
     m = settings.top_m
     all_std = rate_std(default_noise_rates(), fps) * settings.noise_scale
     n = settings.evaluations()
+    n_keys = settings.rounds * len(stages) + 1
 
-    def step(rng_key: jax.Array, state: FilterState, measure):
+    def shapes_for(k: int) -> tuple:
+        """(key index, shape) of each draw of a frame that starts from ``k`` kept particles."""
+        return tuple((r * len(stages) + g, (k * len(st.offsets), len(st.noise_idx)))
+                     for r in range(settings.rounds) for g, st in enumerate(stages)
+                     if len(st.noise_idx)) + (((n_keys - 1, (settings.filler, NUM_DOF)),)
+                                              if settings.filler else ())
+
+    def draws(rng_key: jax.Array) -> tuple:
+        return _split_and_draw(rng_key, n_keys, shapes_for(m))
+
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
         kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
         seen_p, seen_w = [], []
-        keys = jax.random.split(rng_key, settings.rounds * len(stages) + 1)
-        shapes = tuple((r * len(stages) + g, (len(kept) * len(st.offsets), len(st.noise_idx)))
-                       for r in range(settings.rounds) for g, st in enumerate(stages)
-                       if len(st.noise_idx)) + (((len(keys) - 1, (settings.filler, NUM_DOF)),)
-                                                if settings.filler else ())
-        z = dict(zip((i for i, _ in shapes), (np.asarray(a) for a in _standard_normals(keys, shapes))))
+        shapes = shapes_for(len(kept))
+        if drawn is None or tuple(a.shape for a in drawn[1]) != tuple(s for _, s in shapes):
+            drawn = _split_and_draw(rng_key, n_keys, shapes)  # fewer than M distinct, or not ahead
+        keys, zs = drawn
+        z = dict(zip((i for i, _ in shapes), (np.asarray(a) for a in zs)))
         for r in range(settings.rounds):
             scale = settings.shrink ** r
             for g, stage in enumerate(stages):
@@ -220,7 +232,7 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
                 cand = _children(keys, i, kept, stage, scale, z.get(i))
                 if r == 0 and g == 0 and settings.filler:
                     extra = kept[np.arange(settings.filler) % m]
-                    extra = extra + np.asarray(z[len(keys) - 1], np.float64) * all_std
+                    extra = extra + np.asarray(z[n_keys - 1], np.float64) * all_std
                     cand = np.concatenate([cand, extra])
                 cand = limits.clip(cand)
                 w = np.asarray(measure(cand), float)
@@ -239,4 +251,4 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
               "groups": {name: list(grid) for name, grid, _ in settings.groups},
               "grid_sizes": list(settings.grid_sizes()),
               "cost_per_particle": settings.cost_per_particle(), "particles": n}
-    return Filter("fipf", init_state, step, n, params, settings.calls())
+    return Filter("fipf", init_state, step, n, params, settings.calls(), draws)

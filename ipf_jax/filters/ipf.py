@@ -99,8 +99,12 @@ def build(settings: IPFSettings, limits: Limits, fps: float) -> Filter:
     def init(particles, weights):
         return FilterState(np.asarray(particles, float), np.asarray(weights, float))
 
-    def step(rng_key: jax.Array, state: FilterState, measure):
-        z = standard_normal(rng_key, (n, len(R)))  # dispatched first: drawn while the host selects
+    def draws(rng_key: jax.Array) -> jax.Array:
+        return standard_normal(rng_key, (n, len(R)))
+
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: jax.Array | None = None):
+        # drawn ahead by the caller, or dispatched first: drawn while the host selects
+        z = drawn if drawn is not None and drawn.shape == (n, len(R)) else draws(rng_key)
         kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
         noise = np.asarray(z, np.float64)
         noise *= std_r  # (N, |R|)
@@ -118,4 +122,4 @@ def build(settings: IPFSettings, limits: Limits, fps: float) -> Filter:
               "interesting": list(settings.interesting),
               "interval_width_deg": float(np.rad2deg(grid[:, 0].max() - grid[:, 0].min())),
               "particles": n, "noise_scale": settings.noise_scale}
-    return Filter("ipf", init, step, n, params, (n,))
+    return Filter("ipf", init, step, n, params, (n,), draws)

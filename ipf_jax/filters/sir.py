@@ -17,6 +17,7 @@ import jax
 import numpy as np
 
 from ..body.limits import Limits
+from ..body.model import NUM_DOF
 from ..errors import require
 from .base import (
     Filter,
@@ -25,6 +26,7 @@ from .base import (
     init_state,
     rate_std,
     resample_diffuse,
+    resample_draws,
     summarise,
 )
 
@@ -45,9 +47,13 @@ def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:
     std = rate_std(default_noise_rates(), fps) * settings.noise_scale  # (D,)
     n = settings.particles
 
-    def step(rng_key: jax.Array, state: FilterState, measure):
-        new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n)  # (N, D)
+    def draws(rng_key: jax.Array) -> tuple:
+        return resample_draws(rng_key, (n, NUM_DOF))
+
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
+        new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n, drawn)  # (N, D)
         weights = np.asarray(measure(new), float)
         return FilterState(new, weights), summarise(new, weights, n)
 
-    return Filter("sir", init_state, step, n, {"particles": n, "noise_scale": settings.noise_scale}, (n,))
+    return Filter("sir", init_state, step, n, {"particles": n, "noise_scale": settings.noise_scale}, (n,),
+                  draws)

@@ -208,6 +208,7 @@ class Tracker:
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self._filters: dict[int, Filter] = {}
+        self._ahead: tuple[int, jax.Array, object] | None = None  # see draw_ahead
         chunk = settings.chunk or pick_chunk(self.filter.calls)  # padding vs calls: docs/benchmarks.md
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel, chunk=chunk)
         self.key = jax.random.PRNGKey(settings.seed)
@@ -375,9 +376,24 @@ class Tracker:
         by the body origin's shift. Returns the state and the evaluations spent."""
         moved = FilterState(state.filter.particles + np.r_[shift, np.zeros(NUM_DOF - 3)],
                             state.filter.weights)
-        filt, info = self.filter_for(state.shape).step(self.frame_key(frame), moved,
-                                                       self.measure(seen.obs, state.shape, log))
+        ahead, self._ahead = self._ahead, None
+        key, drawn = ((ahead[1], {"drawn": ahead[2]}) if ahead is not None and ahead[0] == frame
+                      else (self.frame_key(frame), {}))
+        filt, info = self.filter_for(state.shape).step(key, moved, self.measure(seen.obs, state.shape, log),
+                                                       **drawn)
         return state._replace(filter=filt), info.evaluations
+
+    def draw_ahead(self, state: TrackState, frame: int) -> None:
+        """Dispatch ``frame``'s random draws now (when the filter has them, see
+        :class:`~ipf_jax.filters.base.Filter`): they are computed while the host writes this frame's
+        files and reads the next masks. A cache of a pure function of the frame's key: the step
+        uses it only for that frame, so the numbers are the ones it would have drawn."""
+        filt = self.filter_for(state.shape)
+        if state.filter is None or filt.draws is None:
+            self._ahead = None
+            return
+        key = self.frame_key(frame)
+        self._ahead = (frame, key, filt.draws(key))
 
     def check(self, state: TrackState, frame: int, seen: Seen, status: str, info: dict,
               log: list) -> tuple[TrackState, str, float]:
@@ -553,6 +569,8 @@ class Tracker:
                 t0 = time.perf_counter()
                 seen = self.observe(frame)
                 state, rec = self.track_frame(state, frame, seen)
+                if state.next_index + 1 < len(self.frames):
+                    self.draw_ahead(state, self.frames[state.next_index + 1])
                 joints_csv.write(frame, rec.time_s, rec.points.ravel())
                 poses_csv.write(frame, rec.time_s, rec.pose)
                 rec.info["seconds"] = round(time.perf_counter() - t0, 4)
