@@ -369,6 +369,8 @@ def test_draws_given_ahead_are_the_draws_of_the_step(name):
     assert seen_by(state, drawn=f.draws(key)) == seen_by(state)
     few = f.init(particles[:1], weights[:1])  # one particle: fewer than M kept
     assert seen_by(few, drawn=f.draws(key)) == seen_by(few)
+    other = registry.make(name, {}, LIMITS, FPS, 300)  # another budget: draws of other shapes
+    assert seen_by(state, drawn=other.draws(key)) == seen_by(state)
 
 
 def _ipf_step_by_definition(settings, limits, key, particles, weights):

@@ -148,7 +148,8 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
 
     def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
         x = state.particles
-        drawn = draws(rng_key) if drawn is None else drawn  # every layer's: shapes never change
+        if drawn is None or len(drawn) != layers or drawn[0][1].shape != (n, NUM_DOF):
+            drawn = draws(rng_key)  # every layer's
         pi, _ = annealed_weights(state.weights, settings.survival)
         for layer, scale in enumerate(scales):
             x = resample_diffuse(None, x, pi, std * scale, limits, n, drawn[layer])  # (N, D)

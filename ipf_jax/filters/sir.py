@@ -51,6 +51,7 @@ def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:
         return resample_draws(rng_key, (n, NUM_DOF))
 
     def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
+        drawn = drawn if drawn is not None and drawn[1].shape == (n, NUM_DOF) else None
         new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n, drawn)  # (N, D)
         weights = np.asarray(measure(new), float)
         return FilterState(new, weights), summarise(new, weights, n)
