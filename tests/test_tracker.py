@@ -179,3 +179,26 @@ def test_result_files_are_readable_like_the_users_other_files(tmp_path):
     finally:
         os.umask(umask)
     assert (tmp_path / "run.json").stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600
+
+
+def test_weights_carry_the_pelvis_prior(scene):
+    """Every weight the tracker computes is the silhouette likelihood times the level-pelvis prior
+    (0: the likelihood alone)."""
+    from ipf_jax.body.model import DOF_INDEX
+    from ipf_jax.tracking.prior import level_pelvis
+    from ipf_jax.tracking.tracker import Tracker
+
+    cams, q, masks = scene
+    ds = MemoryDataset(cams, masks, fps=20.0)
+    particles = np.repeat(q[:1], 5, axis=0)
+    particles[:, DOF_INDEX["root_roll"]] = np.deg2rad([0, 5, -10, 20, 40])
+    plain = Tracker(ds, SETTINGS._replace(pelvis_prior_deg=0.0))
+    level = Tracker(ds, SETTINGS._replace(pelvis_prior_deg=20.0))
+    obs = plain.observe(0).obs
+    w0 = plain.measure(obs, SHAPE)(particles)
+    w20 = level.measure(obs, SHAPE)(particles)
+    assert np.all(w0 > 0) and np.allclose(w20, w0 * level_pelvis(particles, 20.0), rtol=1e-12)
+    factors = level_pelvis(particles, 20.0)
+    assert factors[0] == 1.0 and np.isclose(factors[3], np.exp(-0.5))  # 20 deg: one sigma
+    assert np.all(np.diff(factors) < 0)  # |roll| grows along the particles
+    assert np.all(level_pelvis(particles, 0.0) == 1.0)

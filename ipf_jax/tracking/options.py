@@ -189,6 +189,10 @@ OPTIONS: tuple[Option, ...] = (
            "walker searches only the headings within 90 deg of the way the silhouettes' floor point "
            "travels over the next second (when it moves steadily 0.3 m or more; default on; "
            "--no-facing-travel: every heading, e.g. for someone walking backwards)"),
+    Option("pelvis_prior_deg", "--pelvis-prior", "float", 0.0, "a weak prior that the pelvis is "
+           "level: every weight times exp(-roll^2 / 2 sigma^2), sigma in degrees, e.g. 20 for "
+           "walking trials (silhouettes barely see the pelvis's sideways tilt; default 0: off, "
+           "the silhouette likelihood alone)", check=_within(0.0, 90.0, " deg"), metavar="SIGMA"),
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)",
            check=_seed),

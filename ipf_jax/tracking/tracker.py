@@ -71,6 +71,7 @@ from .initialise import InitSettings, floor_points, initialise
 from .options import settings_doc
 from .loss import Coverage, coverage
 from .origin import FrameAnchor, observe_anchor, root_shift
+from .prior import level_pelvis
 from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc
@@ -260,8 +261,9 @@ class Tracker:
         return Seen(obs, small, person, quality, rays)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
-        """``fn(particles, shape=None) -> weights`` on ``obs``; with ``log`` every call's
-        particles and counts are appended to it (the loss test reads the estimate's there)."""
+        """``fn(particles, shape=None) -> weights`` on ``obs`` (times the pelvis prior,
+        :mod:`.prior`); with ``log`` every call's particles and counts are appended to it (the loss
+        test reads the estimate's there)."""
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
             s = shp or shape
             if s is not None and s is not self.scorer.shape:
@@ -269,7 +271,10 @@ class Tracker:
             counts = self.scorer.counts(particles, obs)
             if log is not None:
                 log.append((np.asarray(particles), counts))
-            return weights_from_counts(counts, obs.active)[0]
+            w = weights_from_counts(counts, obs.active)[0]
+            if self.settings.pelvis_prior_deg > 0:  # a weak prior that the pelvis is level
+                w = w * level_pelvis(particles, self.settings.pelvis_prior_deg)
+            return w
         return fn
 
     def coverage_of(self, pose: np.ndarray, obs: Observation, shape: BodyShape, log: list) -> Coverage:
