@@ -19,17 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ipf_jax.data.runfiles import JointsTable, read_joints_csv
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.paths import shared_data_dir
 
 
-def hips(csv_path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(T, 3) left and right hip joints of a joints or ground-truth file."""
-    with open(csv_path) as fh:
-        header = fh.readline().strip().split(",")
-    data = np.genfromtxt(csv_path, delimiter=",", skip_header=1, ndmin=2)
-    col = lambda name: data[:, header.index(f"{name}_x"):header.index(f"{name}_x") + 3]
-    return col("left_hip"), col("right_hip")
+def hips(table: JointsTable) -> tuple[np.ndarray, np.ndarray]:
+    """(T, 3) left and right hip joints of a joints table."""
+    return (table.points[:, table.names.index("left_hip")],
+            table.points[:, table.names.index("right_hip")])
 
 
 def tilt_deg(left: np.ndarray, right: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -43,9 +41,10 @@ def run_error(run_dir: Path, data_root: Path) -> tuple[float, float]:
     run = json.loads((run_dir / "run.json").read_text())
     up = up_rotation(run["up_axis"])[:, 2]  # the world's up direction
     name = run_dir.name.split("@")[0]
-    est = tilt_deg(*hips(run_dir / "joints.csv"), up)
-    truth = tilt_deg(*hips(data_root / name / "ground_truth.csv"), up)
-    e = est - truth[:len(est)]
+    est = read_joints_csv(run_dir / "joints.csv")
+    truth = read_joints_csv(data_root / name / "ground_truth.csv")
+    _, i, j = np.intersect1d(est.frame, truth.frame, return_indices=True)  # the same frames
+    e = tilt_deg(*hips(est), up)[i] - tilt_deg(*hips(truth), up)[j]
     return float(np.nanmean(e)), float(np.nanstd(e))
 
 
