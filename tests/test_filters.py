@@ -422,6 +422,41 @@ def test_resample_diffuse_is_systematic_then_noise_bit_for_bit():
     assert got.tobytes() == want.tobytes()
 
 
+def test_apf_reuses_the_annealing_of_its_last_layer_bit_for_bit(monkeypatch):
+    """The weights an APF step starts from are the last layer's of the step before, annealed at
+    its end already: the next step reuses them (one annealing fewer a frame) and moves the
+    particles exactly as a filter that anneals them again."""
+    settings = apf.APFSettings(particles=300, layers=3)
+    rng = np.random.default_rng(5)
+    state = apf.init_state(LIMITS.clip(rng.normal(0, 0.2, (300, NUM_DOF))), rng.uniform(0, 1, 300))
+
+    def measure(x):  # a smooth likelihood of the pose, some particles dead
+        w = np.exp(-np.sum(x[:, 3:] ** 2, axis=1))
+        w[::17] = 0.0
+        return w
+
+    calls = []
+    real = apf.annealed_weights
+    monkeypatch.setattr(apf, "annealed_weights", lambda lk, t: calls.append(1) or real(lk, t))
+    warm = apf.build(settings, LIMITS, FPS)
+    keys = jax.random.split(jax.random.PRNGKey(9), 2)
+    first, _ = warm.step(keys[0], state, measure)
+    calls.clear()
+    second, _ = warm.step(keys[1], first, measure)
+    assert len(calls) == settings.layers  # the start's annealing came from the step before
+    calls.clear()
+    cold, _ = apf.build(settings, LIMITS, FPS).step(keys[1], first, measure)
+    assert len(calls) == settings.layers + 1
+    assert second.particles.tobytes() == cold.particles.tobytes()
+    assert second.weights.tobytes() == cold.weights.tobytes()
+    # other weights (a checkpoint of another run, a moved state) are annealed, not taken
+    other = first._replace(weights=first.weights[::-1].copy())
+    calls.clear()
+    a, _ = warm.step(keys[1], other, measure)
+    b, _ = apf.build(settings, LIMITS, FPS).step(keys[1], other, measure)
+    assert len(calls) == 2 * settings.layers + 2 and a.particles.tobytes() == b.particles.tobytes()
+
+
 def _anneal_beta_by_definition(likelihood, target, iters=64):
     """The bisection of :func:`apf.anneal_beta` with every one of its ``iters`` steps taken."""
     lw = np.log(np.where(likelihood > 0, likelihood, 1.0))

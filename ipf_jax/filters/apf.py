@@ -146,15 +146,22 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
     def draws(rng_key: jax.Array) -> tuple:
         return layer_draws(rng_key, layers, (n, NUM_DOF))
 
+    last = []  # [(likelihood, its annealed weights)] of the last layer of the last step
+
     def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
         x = state.particles
         if drawn is None or len(drawn) != layers or drawn[0][1].shape != (n, NUM_DOF):
             drawn = draws(rng_key)  # every layer's
-        pi, _ = annealed_weights(state.weights, settings.survival)
+        if last and last[0][0].shape == np.shape(state.weights) and np.array_equal(
+                last[0][0], state.weights, equal_nan=True):
+            pi = last[0][1]  # the previous step annealed these very weights last
+        else:
+            pi, _ = annealed_weights(state.weights, settings.survival)
         for layer, scale in enumerate(scales):
             x = resample_diffuse(None, x, pi, std * scale, limits, n, drawn[layer])  # (N, D)
             likelihood = np.asarray(measure(x), float)
             pi, _ = annealed_weights(likelihood, settings.survival)
+        last[:] = [(likelihood.copy(), pi)]
         info = summarise(x, likelihood, n * layers)
         return FilterState(x, likelihood), info._replace(mean=summarise(x, pi, 0).mean)
 

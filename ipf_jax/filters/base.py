@@ -144,7 +144,12 @@ def resample_diffuse(rng_key: jax.Array | None, particles: np.ndarray, weights: 
     num = len(particles) if num is None else num
     u, z = drawn if drawn is not None else resample_draws(rng_key, (num, particles.shape[1]))
     idx = systematic_at(float(u), weights, num)
-    return limits.clip(particles[idx] + np.asarray(z, np.float64) * std)
+    # in place on one fresh array: the same numbers as ``clip(particles[idx] + z * std)``, without
+    # the three more N x D temporaries (fresh pages cost more than the arithmetic at this size)
+    out = np.array(z, np.float64)
+    out *= std
+    out += particles[idx]
+    return limits.clip(out, copy=False)
 
 
 @functools.partial(jax.jit, static_argnames="shape")
