@@ -457,6 +457,18 @@ def test_apf_reuses_the_annealing_of_its_last_layer_bit_for_bit(monkeypatch):
     assert len(calls) == 2 * settings.layers + 2 and a.particles.tobytes() == b.particles.tobytes()
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_effective_fraction_is_the_plain_formula_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 7, 300, 4000, 4097, 20000):
+        w = rng.uniform(0, 1, n) ** rng.uniform(0.1, 50)
+        w[rng.random(n) < 0.1] = 0.0
+        w[0] = 0.5  # not all dead
+        plain = float(np.sum(w)) ** 2 / (n * float(np.sum(w * w)))
+        assert apf.effective_fraction(w) == plain
+        assert apf.effective_fraction(w, np.empty(n)) == plain
+
+
 def _anneal_beta_by_definition(likelihood, target, iters=64):
     """The bisection of :func:`apf.anneal_beta` with every one of its ``iters`` steps taken."""
     lw = np.log(np.where(likelihood > 0, likelihood, 1.0))

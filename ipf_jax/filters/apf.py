@@ -72,8 +72,10 @@ def layer_scales(settings: APFSettings) -> np.ndarray:
 def effective_fraction(w: np.ndarray, scratch: np.ndarray | None = None) -> float:
     """(sum w)^2 / (N sum w^2) of (N,) non-negative weights: 1 all equal, 1/N one survivor.
     ``scratch``: an (N,) buffer for ``w * w`` (a caller evaluating it many times)."""
-    s2 = float(np.sum(np.multiply(w, w, out=scratch)))
-    return float(np.sum(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0
+    # np.add.reduce is np.sum's own pairwise sum without its wrappers (same bits, ~1.6 us less
+    # a call: the annealing's bisection calls this ~60 times a layer)
+    s2 = float(np.add.reduce(np.multiply(w, w, out=scratch)))
+    return float(np.add.reduce(w)) ** 2 / (len(w) * s2) if s2 > 0 else 0.0
 
 
 def _log_likelihood(likelihood: np.ndarray) -> np.ndarray:
