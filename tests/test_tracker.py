@@ -85,6 +85,55 @@ def test_draws_made_ahead_are_used_and_change_nothing(scene, tmp_path, name, opt
         assert (tmp_path / "ahead" / file).read_bytes() == (tmp_path / "inside" / file).read_bytes()
 
 
+def test_the_next_frame_is_read_on_a_background_thread_and_changes_nothing(scene, tmp_path, monkeypatch):
+    """Frame t + 1 is read (masks, resize, blobs, rays) while frame t is tracked, on the reader
+    thread; the files are byte for byte those of a run that reads every frame when it starts."""
+    import threading
+
+    from ipf_jax.tracking import prefetch
+
+    cams, q, masks = scene
+    readers = []
+
+    class Watched(MemoryDataset):
+        def masks(self, frame):
+            readers.append((frame, threading.current_thread().name))
+            return super().masks(frame)
+
+    ds = Watched(cams, masks, fps=20.0)
+    track(ds, tmp_path / "ahead", SETTINGS, progress=False)
+    assert {f for f, name in readers if name.startswith("ipf-jax-read")} == {1, 2, 3, 4, 5}
+    readers.clear()
+    monkeypatch.setattr(prefetch.Prefetch, "start", lambda self, frame: None)  # read when needed
+    track(ds, tmp_path / "direct", SETTINGS, progress=False)
+    assert not any(name.startswith("ipf-jax-read") for _, name in readers)
+    for file in ("joints.csv", "poses.csv"):
+        assert (tmp_path / "ahead" / file).read_bytes() == (tmp_path / "direct" / file).read_bytes()
+
+
+def test_prefetch_serves_its_frame_raises_its_error_there_and_drops_the_rest():
+    from ipf_jax.errors import IPFError
+    from ipf_jax.tracking.prefetch import Prefetch
+
+    def read(frame):
+        if frame == 3:
+            raise IPFError(f"frame {frame} is corrupt")
+        return frame * 10
+
+    with Prefetch(read) as ahead:
+        ahead.start(1)
+        assert ahead.take(1) == 10 and ahead.hits == 1
+        ahead.start(3)  # read ahead, failing: nothing is raised until frame 3 is taken
+        ahead.start(2)  # another frame asked for instead: the failed read is dropped unraised
+        assert ahead.take(2) == 20 and ahead.hits == 2
+        assert ahead.take(4) == 40 and ahead.hits == 2  # not read ahead: read directly
+        ahead.start(3)
+        with pytest.raises(IPFError, match="frame 3 is corrupt"):
+            ahead.take(3)
+        ahead.start(5)
+    # leaving the block waited for the read in flight and dropped it
+
+
 class Crash(Exception):
     pass
 

@@ -3,9 +3,10 @@ estimate -> check, then write the rows.
 
 :meth:`Tracker.track_frame` is one frame, ``(state, frame) -> (state, FrameRecord)``, and reads as
 the paper's stages; :class:`~ipf_jax.tracking.state.TrackState` is everything carried from frame to
-frame and is the checkpoint. :meth:`Tracker.run` only reads frames, writes rows (appended and
-flushed per frame, fsynced before each checkpoint), checkpoints every K frames and shows progress, so ``resume=True`` continues
-exactly where a run stopped.
+frame and is the checkpoint. :meth:`Tracker.run` only reads frames (the next one on a
+background thread while this one is tracked: :mod:`.prefetch`), writes rows (appended and flushed
+per frame, fsynced before each checkpoint), checkpoints every K frames and shows progress, so
+``resume=True`` continues exactly where a run stopped.
 
 Per frame: every camera's mask is resized once to the scoring resolution; a camera with an empty
 mask is skipped (recorded); a frame where no camera shows a person-sized blob is written as
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import threading
 import time
 from pathlib import Path
 from typing import Callable, NamedTuple
@@ -71,6 +73,7 @@ from .initialise import InitSettings, floor_points, initialise
 from .options import settings_doc
 from .loss import Coverage, coverage
 from .origin import FrameAnchor, observe_anchor, root_shift
+from .prefetch import Prefetch
 from .prior import level_pelvis
 from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
@@ -185,6 +188,7 @@ class Tracker:
 
     def __init__(self, dataset: Dataset, settings: TrackSettings, frames: list[int] | None = None):
         self.dataset = dataset
+        self._read_lock = threading.Lock()  # one read of the data set at a time (see run)
         if settings.height_m is None and getattr(dataset, "height_m", None):
             settings = settings._replace(height_m=float(dataset.height_m))  # from dataset.json
         self.settings = settings
@@ -232,7 +236,8 @@ class Tracker:
 
     # -- the stages of a frame ---------------------------------------------------------------
     def read_masks(self, frame: int) -> list[np.ndarray]:
-        masks = self.dataset.masks(frame)
+        with self._read_lock:  # the next frame may be read on another thread (run, .prefetch)
+            masks = self.dataset.masks(frame)
         for k, m in enumerate(masks, start=1):
             # float masks (arrays, 32-bit TIFF) can hold NaN, which is neither foreground nor
             # background: refusing it beats silently counting it as foreground
@@ -559,6 +564,7 @@ class Tracker:
         frame = shape_written = None
         records = EncodedList()  # every checkpoint writes them all: each is encoded once
         saved = state.next_index
+        ahead = Prefetch(self.observe)  # the next frame is read while this one is tracked
 
         def save() -> None:  # the rows the checkpoint counts are on disk first
             nonlocal saved
@@ -572,7 +578,9 @@ class Tracker:
         try:
             for frame in bar:
                 t0 = time.perf_counter()
-                seen = self.observe(frame)
+                seen = ahead.take(frame)
+                if state.next_index + 1 < len(self.frames):
+                    ahead.start(self.frames[state.next_index + 1])
                 state, rec = self.track_frame(state, frame, seen)
                 if state.next_index + 1 < len(self.frames):
                     self.draw_ahead(state, self.frames[state.next_index + 1])
@@ -603,6 +611,7 @@ class Tracker:
                     if (out_dir / checkpoint.NAME).exists() else "")
             raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
         finally:
+            ahead.close()
             bar.close()
             joints_csv.close()
             poses_csv.close()
