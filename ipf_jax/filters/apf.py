@@ -154,8 +154,7 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
         x = state.particles
         if drawn is None or len(drawn) != layers or drawn[0][1].shape != (n, NUM_DOF):
             drawn = draws(rng_key)  # every layer's
-        if last and last[0][0].shape == np.shape(state.weights) and np.array_equal(
-                last[0][0], state.weights, equal_nan=True):
+        if last and np.array_equal(last[0][0], state.weights, equal_nan=True):
             pi = last[0][1]  # the previous step annealed these very weights last
         else:
             pi, _ = annealed_weights(state.weights, settings.survival)

@@ -564,7 +564,7 @@ class Tracker:
         frame = shape_written = None
         records = EncodedList()  # every checkpoint writes them all: each is encoded once
         saved = state.next_index
-        ahead = Prefetch(self.observe)  # the next frame is read while this one is tracked
+        reader = Prefetch(self.observe)  # the next frame is read while this one is tracked
 
         def save() -> None:  # the rows the checkpoint counts are on disk first
             nonlocal saved
@@ -578,9 +578,9 @@ class Tracker:
         try:
             for frame in bar:
                 t0 = time.perf_counter()
-                seen = ahead.take(frame)
+                seen = reader.take(frame)
                 if state.next_index + 1 < len(self.frames):
-                    ahead.start(self.frames[state.next_index + 1])
+                    reader.start(self.frames[state.next_index + 1])
                 state, rec = self.track_frame(state, frame, seen)
                 if state.next_index + 1 < len(self.frames):
                     self.draw_ahead(state, self.frames[state.next_index + 1])
@@ -611,7 +611,7 @@ class Tracker:
                     if (out_dir / checkpoint.NAME).exists() else "")
             raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
         finally:
-            ahead.close()
+            reader.close()
             bar.close()
             joints_csv.close()
             poses_csv.close()
