@@ -97,3 +97,25 @@ def test_yaw_turns_about_up():
     pts = fk(q).points
     assert pts[P["left_toe"], 1] > pts[P["left_heel"], 1]  # now facing +y
     assert pts[P["left_hip"], 0] < 0  # left side towards -x
+
+
+def test_frame_axes_places_points_as_the_whole_forward_kinematics():
+    """The partial forward kinematics of the tracking priors (only the frames asked for and their
+    ancestors) places points where the whole tree does."""
+    from ipf_jax.body.model import POINTS
+    from ipf_jax.geometry.kinematics import frame_axes, place
+
+    q = random_poses(50, seed=3)
+    values = np.asarray(default_shape(1.7).values, float)
+    up = up_rotation("-y")
+    whole = forward_kinematics(q, values, up, xp=np).points
+    wanted = [p for p in POINTS if p.frame in ("pelvis", "trunk", "left_shank", "right_forearm")]
+    world = frame_axes(q.T, values, up, sorted({p.frame for p in wanted}))
+    assert "head" not in world and "left_foot" not in world  # nothing beyond what was asked
+    for p in wanted:
+        got = np.stack(np.broadcast_arrays(*place(world, p.frame, p.position, values)), -1)
+        np.testing.assert_allclose(got, whole[:, POINT_INDEX[p.name]], atol=1e-12)
+    bodies = np.tile(values[:, None], (1, len(q)))  # a body per particle gives the same
+    per = frame_axes(q.T, bodies, up, ["left_shank"])
+    np.testing.assert_allclose(np.stack(place(per, "left_shank", (0, 0, "-shank"), bodies), -1),
+                               whole[:, POINT_INDEX["left_ankle"]], atol=1e-12)

@@ -29,6 +29,9 @@ from ..body.model import (
 )
 
 
+FRAMES_BY_NAME = {f.name: f for f in FRAMES}
+
+
 class Pose3D(NamedTuple):
     """points : (J, 3);  seg_a, seg_b : (S, 3) capsule sphere centres;  seg_r : (S, 2) radii."""
 
@@ -127,6 +130,43 @@ def forward_kinematics(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarra
     return Pose3D(points, seg_a, seg_b, seg_r)
 
 
+def frame_axes(q_t: np.ndarray, shape_values, up: np.ndarray, names, xp=np) -> dict:
+    """Only the body frames ``names`` and their ancestors, particle axis last: ``{name: (cols,
+    origin)}``, each frame's three axes and its origin as tuples of coordinate arrays (B,).
+
+    q_t : (D, B) particles.  shape_values : (P,) one body, or (P, B) a body per particle.
+    The arithmetic of :func:`forward_kinematics` on the frames it needs (the tracking priors read
+    two or three points of every particle; placing all 19 would cost ten times more).
+    """
+    need = set()
+    for name in names:
+        while name is not None and name not in need:
+            need.add(name)
+            name = FRAMES_BY_NAME[name].parent
+    world = {}
+    for f in FRAMES:
+        if f.name not in need:
+            continue
+        if f.parent is None:
+            cols = tuple(tuple(up[r, c] for r in range(3)) for c in range(3))
+            origin = (q_t[0], q_t[1], q_t[2])
+        else:
+            pcols, porigin = world[f.parent]
+            cols, origin = pcols, _apply(pcols, porigin, f.origin, shape_values)
+        for axis, sign, dof in f.rotation:
+            angle = sign * q_t[DOF_INDEX[dof]]
+            cols = _turn(cols, axis, xp.cos(angle), xp.sin(angle))
+        world[f.name] = (cols, origin)
+    return world
+
+
+def place(world: dict, frame: str, coords, shape_values) -> tuple:
+    """A position given in ``frame`` (shape-parameter expressions) in the world, as a tuple of
+    coordinate arrays, from :func:`frame_axes`' result."""
+    cols, origin = world[frame]
+    return _apply(cols, origin, coords, shape_values)
+
+
 def _end_key(frame: str, coords) -> tuple:
     """A capsule end as (frame, position), a frame's origin written in its parent's frame."""
     f = FRAMES_BY_NAME[frame]
@@ -134,8 +174,6 @@ def _end_key(frame: str, coords) -> tuple:
         return _end_key(f.parent, f.origin)
     return frame, tuple(coords)
 
-
-FRAMES_BY_NAME = {f.name: f for f in FRAMES}
 #: the distinct capsule end centres, (frame, position) each, in order of first use
 CAPSULE_ENDS = tuple(dict.fromkeys(_end_key(s.frame, e) for s in SEGMENTS for e in (s.a, s.b)))
 #: (S, 2) index into :data:`CAPSULE_ENDS` of each segment's ends a and b
