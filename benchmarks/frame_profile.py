@@ -19,6 +19,8 @@ functions that do it, per tracked frame:
 * ``window plan``: ``Scorer.plan``;
 * ``raster + counts``: the interval and word stages (device) and the counts' transfer;
 * ``weights``: ``weights_from_counts``;
+* ``priors``: the tracker's priors on the weights (``tracking/prior.py``: with one camera the lean
+  prior, on by default; ``--lean-prior 0`` turns it off to compare);
 * ``files``: rows, checkpoints, run.json;
 * ``other host``: the rest of ``Tracker.run`` per tracked frame (estimate, its host FK, confidence,
   records, the bookkeeping of the loop).
@@ -71,6 +73,8 @@ FUNCTIONS = {
     "window plan": [("likelihood/scorer.py", "plan", None), ("ipf_jax/likelihood.py", "plan", None)],
     "weights": [("likelihood/scorer.py", "weights_from_counts", None),
                 ("ipf_jax/likelihood.py", "weights_from_counts", None)],
+    "priors": [("tracking/prior.py", "level_pelvis", None),
+               ("tracking/prior.py", "upright_to_camera", None)],
     "rows": [("data/runfiles.py", "write", None), ("ipf_jax/outputs.py", "write", None)],
     "checkpoint": [("tracking/state.py", "save", None), ("ipf_jax/checkpoint.py", "save", ("run",))],
     "run.json": [("data/runfiles.py", "write_json_atomic", None),
@@ -102,8 +106,8 @@ def stages(stats: pstats.Stats, frames: int) -> dict:
         "prediction": c["filter step"] - c["measure"] - c["selection"],
         "geometry": c["geometry"], "window plan": c["window plan"],
         "raster + counts": c["counts"] - c["geometry"] - c["window plan"],
-        "weights": c["weights"],
-        "measure (other host)": c["measure"] - c["counts"] - c["weights"],
+        "weights": c["weights"], "priors": c["priors"],
+        "measure (other host)": c["measure"] - c["counts"] - c["weights"] - c["priors"],
         "files": c["rows"] + c["checkpoint"] + c["run.json"],
     }
     out["other host"] = c["run"] - sum(out.values())
@@ -168,6 +172,8 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--budget", type=int, help="evaluations per frame (default: the filter's)")
     ap.add_argument("--resolution", type=int, default=320)
+    ap.add_argument("--lean-prior", type=float, help="sigma (deg) of the one-camera lean prior "
+                    "(default: the tracker's; 0: off; revisions without it: leave unset)")
     ap.add_argument("--data", help="track this data set's first frames (default: sequenceB_2 0,1,0,...)")
     ap.add_argument("--json", help="write the profile here")
     ap.add_argument("--top", type=int, default=0, help="also print the N functions of most own time")
@@ -178,6 +184,8 @@ def main(argv=None) -> int:
     jax_setup.configure()
     track, TrackSettings, open_dataset, MemoryDataset, profiling = api()
     common = dict(filter=args.filter, budget=args.budget, resolution=args.resolution)
+    if args.lean_prior is not None:
+        common["lean_prior_deg"] = args.lean_prior
     tmp = tempfile.TemporaryDirectory()
     if args.data is None:
         q0, height = profiling.initial_pose(shared_data_dir() / profiling.DATASET)
@@ -204,6 +212,7 @@ def main(argv=None) -> int:
     total = sum(per.values())
     measure = sum(per[k] for k in ("geometry", "window plan", "raster + counts", "weights"))
     doc = {"filter": args.filter, "cameras": args.cameras, "resolution": args.resolution,
+           "lean_prior_deg": getattr(settings, "lean_prior_deg", None),
            "data": ds.name, "evaluations_per_frame": plain.run["evaluations_per_frame"],
            "seconds_per_frame": plain.run["seconds"]["per_tracked_frame_mean"],
            "wall_per_frame_incl_files": round(wall, 4), "profiled_stages_s": per,

@@ -251,3 +251,57 @@ def test_weights_carry_the_pelvis_prior(scene):
     assert factors[0] == 1.0 and np.isclose(factors[3], np.exp(-0.5))  # 20 deg: one sigma
     assert np.all(np.diff(factors) < 0)  # |roll| grows along the particles
     assert np.all(level_pelvis(particles, 0.0) == 1.0)
+
+
+#: the compiled lean prior (float32) against its NumPy reference (float64): factors in (0, 1]
+FACTOR_ATOL = 1e-5
+
+
+def test_one_camera_weights_carry_the_lean_prior_and_several_do_not(scene):
+    """With one camera every weight is the likelihood times the prior against leaning along its
+    line of sight; a lean across it costs nothing; with two cameras the prior is off."""
+    from ipf_jax.body.model import DOF_INDEX
+    from ipf_jax.tracking.prior import lean_angles, upright_to_camera
+    from ipf_jax.tracking.tracker import Tracker
+
+    cams, q, masks = scene
+    one = MemoryDataset(cams[:1], masks[:, :1], fps=20.0)
+    plain = Tracker(one, SETTINGS._replace(lean_prior_deg=0.0))
+    upright = Tracker(one, SETTINGS._replace(lean_prior_deg=10.0))
+    particles = np.repeat(q[:1], 4, axis=0)
+    particles[1:, DOF_INDEX["trunk_flexion"]] += np.deg2rad([5.0, 10.0, 20.0])
+    obs = plain.observe(0).obs
+    w0 = plain.measure(obs, SHAPE)(particles)
+    w10 = upright.measure(obs, SHAPE)(particles)
+    factors = upright_to_camera(particles, SHAPE.values, upright.U, upright.cameras[0].centre, 10.0)
+    assert np.all(w0 > 0) and np.allclose(w10, w0 * factors, rtol=1e-12)
+    assert np.all(factors <= 1.0) and np.all(upright_to_camera(particles, SHAPE.values, upright.U,
+                                                                upright.cameras[0].centre, 0.0) == 1)
+    # the compiled float32 kernel against the float64 NumPy reference, one body and a body each
+    trunk, legs = lean_angles(particles, SHAPE.values, upright.U, upright.cameras[0].centre)
+    reference = np.exp(-0.5 * (trunk ** 2 + legs ** 2) / np.deg2rad(10.0) ** 2)
+    np.testing.assert_allclose(factors, reference, atol=FACTOR_ATOL)
+    bodies = np.tile(np.asarray(SHAPE.values), (len(particles), 1))
+    np.testing.assert_allclose(upright_to_camera(particles, bodies, upright.U, upright.cameras[0].centre,
+                                                 10.0), reference, atol=FACTOR_ATOL)
+
+    # a body leaning by 10 deg straight away from the camera, then across its line of sight
+    centre = upright.cameras[0].centre
+    body = np.zeros((2, len(q[0])))
+    body[:, :3] = q[0, :3]
+    vertical = upright.U[:, 2]
+    away = body[0, :3] - centre
+    away -= (away @ vertical) * vertical
+    canon = upright.U.T @ away  # the canonical frame: z up, yaw about z
+    body[0, DOF_INDEX["root_yaw"]] = np.arctan2(canon[1], canon[0])  # facing away from the camera
+    body[1, DOF_INDEX["root_yaw"]] = body[0, DOF_INDEX["root_yaw"]] + np.pi / 2  # side on
+    level = lean_angles(body, SHAPE.values, upright.U, centre)
+    body[:, DOF_INDEX["root_pitch"]] = np.deg2rad(10.0)  # pitched forward
+    pitched = lean_angles(body, SHAPE.values, upright.U, centre)
+    for a, b in zip(pitched, level):  # trunk, legs: 10 deg more along the line of sight only
+        assert np.allclose(np.rad2deg(a - b), [10.0, 0.0], atol=0.2)
+    assert np.allclose(np.rad2deg(level[0][1]), 0.0, atol=0.2)  # side on: nothing along it
+    two = Tracker(MemoryDataset(cams, masks, fps=20.0), SETTINGS._replace(lean_prior_deg=10.0))
+    none = Tracker(MemoryDataset(cams, masks, fps=20.0), SETTINGS._replace(lean_prior_deg=0.0))
+    obs2 = two.observe(0).obs
+    assert np.array_equal(two.measure(obs2, SHAPE)(particles), none.measure(obs2, SHAPE)(particles))

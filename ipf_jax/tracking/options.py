@@ -193,6 +193,11 @@ OPTIONS: tuple[Option, ...] = (
            "level: every weight times exp(-roll^2 / 2 sigma^2), sigma in degrees, e.g. 20 for "
            "walking trials (silhouettes barely see the pelvis's sideways tilt; default 0: off, "
            "the silhouette likelihood alone)", check=_within(0.0, 90.0, " deg"), metavar="SIGMA"),
+    Option("lean_prior_deg", "--lean-prior", "float", 10.0, "with ONE camera, a prior that the "
+           "person stands upright along its line of sight, which one view cannot see: every weight "
+           "times exp(-(trunk^2 + legs^2) / 2 sigma^2) of the trunk's and the legs' lean towards or "
+           "away from the camera, sigma in degrees (default 10; 0: off; ignored with several "
+           "cameras)", check=_within(0.0, 90.0, " deg"), metavar="SIGMA"),
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)",
            check=_seed),

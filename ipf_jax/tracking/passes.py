@@ -23,7 +23,7 @@ from ..data import checkpoint
 from ..data.dataset import Dataset
 from ..data.runfiles import write_json_atomic
 from ..errors import require
-from .shape_fit import Scene, refit_from_track, shape_doc
+from .shape_fit import refit_from_track, shape_doc
 from .tracker import RunResult, Tracker, TrackSettings
 from .tracker import track as track_one
 
@@ -63,9 +63,7 @@ def track(dataset: Dataset, out_dir: str | Path, settings: TrackSettings = Track
     require(len(tracked) > 0, "pass 1 tracked no frame: nothing to re-fit the shape on", out)
     shape1 = shape_from_json(r1.run["shape"])
     tr = Tracker(dataset, settings, frames)
-    scene = Scene(lambda f: tuple(tr.observe(f)[:2]), tr.frames, tr.cameras, tr.U, tr.limits, tr.scorer,
-                  tr.frame_key)
-    fit = refit_from_track(scene, tracked, shape1, height_m=tr.settings.height_m,
+    fit = refit_from_track(tr.fit_scene(), tracked, shape1, height_m=tr.settings.height_m,
                            settings=settings.shape_fit, seed=settings.seed)
     refit_seconds = time.perf_counter() - t0
     shape_path = first_dir / "shape_refit.json"

@@ -1,23 +1,37 @@
-"""An optional weak prior that the pelvis is level (``--pelvis-prior SIGMA``; off by default).
+"""Weak priors the silhouettes cannot supply, multiplied into every weight the tracker computes (its
+filter, the initialisation and recovery searches).
 
-The pelvis's roll (its tilt to the side, ``root_roll``) is nearly unobservable in silhouettes: a
-pelvis rolled by 15 deg with the trunk bent back by 15 deg (``trunk_lateral``) and the hips
-abducted to match casts almost the silhouettes of a level pelvis, so the likelihood is flat along
-that combination and the filter drifts on it (docs/fipf.md). With the prior, every weight the
-tracker computes (its filter, the initialisation and recovery searches) is multiplied by
-``exp(-roll^2 / (2 sigma^2))``; the shape fit's own scores are not.
+**The pelvis is level** (``--pelvis-prior SIGMA``; off by default). The pelvis's roll (its tilt to
+the side, ``root_roll``) is nearly unobservable in silhouettes: a pelvis rolled by 15 deg with the
+trunk bent back by 15 deg (``trunk_lateral``) and the hips abducted to match casts almost the
+silhouettes of a level pelvis, so the likelihood is flat along that combination and the filter
+drifts on it (docs/fipf.md). The factor is ``exp(-roll^2 / (2 sigma^2))``; the shape fit's own
+scores do not carry it. Measured with sigma 20 deg on the visible 4-camera walks (seeds 0/1/2):
+the tracked pelvis's tilt off the truth's by 1.2 deg on the run's mean instead of 4.4 (none over 5
+deg instead of 11 of 30 runs). The joint positions were not better (10 walks 27.5 -> 27.8 mm) and
+sit-to-stand was worse (60.1 -> 66.3 mm), so it is an option for walking trials whose pelvic
+obliquity matters, not the default (docs/fipf.md).
 
-Measured with sigma 20 deg on the visible 4-camera walks (seeds 0/1/2): the tracked pelvis's tilt
-off the truth's by 1.2 deg on the run's mean instead of 4.4 (none over 5 deg instead of 11 of
-30 runs). The joint positions were not better (10 walks 27.5 -> 27.8 mm) and sit-to-stand was
-worse (60.1 -> 66.3 mm), so it is an option for walking trials whose pelvic obliquity matters,
-not the default (docs/fipf.md).
+**Upright along one camera's line of sight** (``--lean-prior SIGMA``, 10 deg by default, used only
+with ONE camera). One view measures a lean towards or away from the camera only through the
+silhouette's small changes of size; left free, the tracked body leaned away from the camera by
+5-21 deg (trunk) and up to 37 deg (hips over ankles) on the visible one-camera walks, whose truth is
+within 4.5 and 8.4 deg. The factor is ``exp(-(trunk^2 + legs^2) / (2 sigma^2))`` of the trunk's
+(hips' midpoint -> shoulders' midpoint) and the legs' (ankles' midpoint -> hips' midpoint) lean in
+the vertical plane through the camera and the hips (:func:`lean_angles`); a lean across the line
+of sight, which the silhouette shows, costs nothing. The shape fit's scores carry it too (a body
+fitted leaning is a body of the wrong proportions). The measured effect is in
+docs/single_camera.md; its cost, on ``sequenceB_2`` with one camera under the profiler, 2.5 % of
+an IPF frame and 5 % of a factored-IPF frame (``benchmarks/frame_profile.py``, stage "priors").
 """
 from __future__ import annotations
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ..body.model import DOF_INDEX
+from ..geometry.kinematics import frame_axes, place
 
 ROLL = DOF_INDEX["root_roll"]
 
@@ -29,3 +43,84 @@ def level_pelvis(particles: np.ndarray, sigma_deg: float) -> np.ndarray:
     if sigma_deg <= 0:
         return np.ones(len(roll))
     return np.exp(-0.5 * (roll / np.deg2rad(sigma_deg)) ** 2)
+
+
+#: where the lean prior reads the body (frame, position in it): the hips' midpoint, the shoulders'
+#: midpoint and the two ankles
+_MID_HIP = ("pelvis", ("+hip_forward", 0, "-hip_down"))
+_MID_SHOULDER = ("trunk", (0, 0, ("+trunk", "-shoulder_drop")))
+_ANKLES = (("left_shank", (0, 0, "-shank")), ("right_shank", (0, 0, "-shank")))
+
+
+def _leans(q_t, sv, up, centre, xp):
+    """(trunk, legs) lean angles of particles ``q_t`` (D, B), bodies ``sv`` (P,) or (P, B), in the
+    array module ``xp`` (NumPy: the reference; jax.numpy: the tracker's compiled kernel)."""
+    world = frame_axes(q_t, sv, up, ("pelvis", "trunk", "left_shank", "right_shank"), xp=xp)
+    hip = place(world, *_MID_HIP, sv)
+    shoulder = place(world, *_MID_SHOULDER, sv)
+    left, right = place(world, *_ANKLES[0], sv), place(world, *_ANKLES[1], sv)
+    ankle = tuple(0.5 * (a + b) for a, b in zip(left, right))
+    vertical = tuple(up[r, 2] for r in range(3))
+    away = [h - centre[r] for r, h in enumerate(hip)]  # horizontal direction camera -> hips
+    rise = sum(a * v for a, v in zip(away, vertical))
+    away = [a - rise * v for a, v in zip(away, vertical)]
+    norm = xp.sqrt(sum(a * a for a in away))
+
+    def lean(a, b):
+        v = [bi - ai for ai, bi in zip(a, b)]
+        along = sum(vi * wi for vi, wi in zip(v, away))
+        length = xp.sqrt(sum(vi * vi for vi in v)) * norm
+        return xp.arcsin(xp.clip(along / xp.maximum(length, 1e-12), -1.0, 1.0))
+
+    return lean(hip, shoulder), lean(ankle, hip)
+
+
+def lean_angles(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
+                centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) angles (radians) by which each particle's trunk (hips' midpoint -> shoulders' midpoint)
+    and legs (ankles' midpoint -> hips' midpoint) lean away from a camera at ``centre`` (3,), in the
+    vertical plane through the camera and the hips (positive: the top further from the camera).
+    NumPy, float64: the reference of the tracker's compiled :func:`upright_to_camera`.
+
+    shape_values : (P,) one body, or (N, P) a body per particle.
+    up : (3, 3) the tracker's rotation of the body's canonical frame (z up) into the world.
+    """
+    q_t = np.ascontiguousarray(np.asarray(particles, float).T)  # each DOF a contiguous row
+    sv = np.asarray(shape_values, float)
+    return _leans(q_t, sv.T if sv.ndim == 2 else sv, np.asarray(up, float),
+                  np.asarray(centre, float), np)
+
+
+@jax.jit
+def _upright_jit(q_t, shape_values, up, centre, inv_sigma):
+    """q_t (D, B) particles as rows; shape_values (P,) or (P, B)."""
+    trunk, legs = _leans(q_t, shape_values, up, centre, jnp)
+    return jnp.exp(-0.5 * ((trunk * inv_sigma) ** 2 + (legs * inv_sigma) ** 2))
+
+
+#: smallest padded call of the compiled prior; calls are padded to powers of two from it, so a
+#: run compiles a handful of sizes (the filters' and searches' calls vary in length)
+MIN_BLOCK = 64
+
+
+def upright_to_camera(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
+                      centre: np.ndarray, sigma_deg: float) -> np.ndarray:
+    """(N,) prior factors in (0, 1]: ``exp(-(trunk^2 + legs^2) / 2 sigma^2)`` of the lean angles
+    along the camera's line of sight (:func:`lean_angles`); all 1 with ``sigma_deg`` 0.
+
+    One compiled call in float32, padded to a power of two (at least :data:`MIN_BLOCK`): 0.25 /
+    0.9 / 4.0 ms for 64 / 650 / 6561 particles against the NumPy reference's 1.6 / 2.7 / 9.8 on a
+    2-core EPYC; tests/test_tracker.py checks it against :func:`lean_angles`."""
+    n = len(particles)
+    if sigma_deg <= 0 or n == 0:
+        return np.ones(n)
+    block = max(MIN_BLOCK, 1 << (n - 1).bit_length())
+    q_t = np.empty((np.shape(particles)[1], block), np.float32)  # each DOF a contiguous row
+    q_t[:, :n] = np.asarray(particles).T
+    q_t[:, n:] = q_t[:, :1]  # padded with a real particle: no 0/0 on the padding
+    sv = np.asarray(shape_values, np.float32)
+    if sv.ndim == 2:  # (N, P) -> (P, block)
+        sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
+    out = _upright_jit(q_t, sv, np.asarray(up, np.float32), np.asarray(centre, np.float32),
+                       np.float32(1.0 / np.deg2rad(sigma_deg)))
+    return np.asarray(out, np.float64)[:n]

@@ -137,10 +137,12 @@ FRAME_INIT = InitSettings(headings=16, position_steps=1, modes=2, keep=12, refin
 ShapeMeasure = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def shape_measure(scorer: Scorer, obs: Observation) -> ShapeMeasure:
-    """``fn(particles (N, D), shapes (N, P)) -> (N,)`` weights on one frame, a body per particle."""
+def shape_measure(scorer: Scorer, obs: Observation, prior: ShapeMeasure | None = None) -> ShapeMeasure:
+    """``fn(particles (N, D), shapes (N, P)) -> (N,)`` weights on one frame, a body per particle,
+    times ``prior(particles, shapes)`` when given (the tracker's, :mod:`.prior`)."""
     def fn(particles: np.ndarray, shapes: np.ndarray) -> np.ndarray:
-        return weights_from_counts(scorer.counts(particles, obs, shapes=shapes), obs.active)[0]
+        w = weights_from_counts(scorer.counts(particles, obs, shapes=shapes), obs.active)[0]
+        return w if prior is None else w * prior(particles, shapes)
     return fn
 
 
@@ -427,6 +429,8 @@ class Scene(NamedTuple):
     cameras : scoring cameras.  U : (3, 3) up rotation.  limits : DOF ranges.  scorer : the
     run's :class:`Scorer`.  key : frame, salt -> JAX key.  heading : frame -> the direction of
     travel there (rad) or None (:mod:`ipf_jax.tracking.travel`); None: every heading searched.
+    prior : particles (N, D), bodies (N, P) -> (N,) factors every weight of the fit is multiplied
+    by (the tracker's priors, :mod:`ipf_jax.tracking.prior`); None: the likelihood alone.
     """
 
     observe: Callable
@@ -437,6 +441,7 @@ class Scene(NamedTuple):
     scorer: Scorer
     key: Callable
     heading: Callable | None = None
+    prior: ShapeMeasure | None = None
 
 
 def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights: np.ndarray,
@@ -453,7 +458,7 @@ def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights:
     t0 = time.perf_counter()
     evaluations = 0
     scorer = fit_scorer(scene, shape)
-    fits = [FramePoses(frame, shape_measure(scorer, scene.observe(frame)[0]), particles, weights)]
+    fits = [FramePoses(frame, shape_measure(scorer, scene.observe(frame)[0], scene.prior), particles, weights)]
     skipped = []
     for f in spread_frames(list(scene.frames), settings.frames):
         if f == frame:
@@ -463,7 +468,7 @@ def calibrate_at_start(scene: Scene, frame: int, particles: np.ndarray, weights:
         if not active:
             skipped.append(int(f))
             continue
-        fn = shape_measure(scorer, obs)
+        fn = shape_measure(scorer, obs, scene.prior)
         try:
             res = initialise(scene.key(f, 3), [small[i] for i in active], [scene.cameras[i] for i in active],
                              scene.U, scene.limits, shape, _as_body_measure(fn), fixed_shape=shape,
@@ -500,7 +505,7 @@ def refit_from_track(scene: Scene, tracked: dict[int, np.ndarray], shape: BodySh
     fits = []
     for f in frames:
         obs, _ = scene.observe(f)
-        fn = shape_measure(scorer, obs)
+        fn = shape_measure(scorer, obs, scene.prior)
         q = scene.limits.clip(np.asarray(tracked[f], np.float64)[None])
         w = fn(q, np.broadcast_to(np.asarray(shape.values, np.float32), (1, len(shape.values))))
         fits.append(FramePoses(f, fn, q, w))

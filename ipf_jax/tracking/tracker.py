@@ -74,7 +74,7 @@ from .options import settings_doc
 from .loss import Coverage, coverage
 from .origin import FrameAnchor, observe_anchor, root_shift
 from .prefetch import Prefetch
-from .prior import level_pelvis
+from .prior import level_pelvis, upright_to_camera
 from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc
@@ -265,6 +265,17 @@ class Tracker:
         person = any(r is not None for r in rays)
         return Seen(obs, small, person, quality, rays)
 
+    @property
+    def lean_prior(self):
+        """``fn(particles (N, D), shape values (P,) or (N, P)) -> (N,)`` factors of the prior that
+        the person stands upright along the line of sight of the one camera (:mod:`.prior`);
+        None with several cameras or ``lean_prior_deg`` 0."""
+        sigma = self.settings.lean_prior_deg
+        if sigma <= 0 or len(self.cameras) != 1:
+            return None
+        centre = self.cameras[0].centre
+        return lambda particles, values: upright_to_camera(particles, values, self.U, centre, sigma)
+
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
         """``fn(particles, shape=None) -> weights`` on ``obs`` (times the pelvis prior,
         :mod:`.prior`); with ``log`` every call's particles and counts are appended to it (the loss
@@ -279,6 +290,8 @@ class Tracker:
             w = weights_from_counts(counts, obs.active)[0]
             if self.settings.pelvis_prior_deg > 0:  # a weak prior that the pelvis is level
                 w = w * level_pelvis(particles, self.settings.pelvis_prior_deg)
+            if self.lean_prior is not None:  # upright along one camera's line of sight
+                w = w * self.lean_prior(particles, (s or self.scorer.shape).values)
             return w
         return fn
 
@@ -342,13 +355,18 @@ class Tracker:
                          settings=s.init, heading=self.heading_of_travel(frame))
         return res.particles, res.weights, res.shape, res.evaluations
 
+    def fit_scene(self) -> Scene:
+        """What the shape fit needs from this run (:class:`~ipf_jax.tracking.shape_fit.Scene`),
+        its scores weighted by the lean prior as the tracker's are."""
+        return Scene(lambda f: tuple(self.observe(f)[:2]), self.frames, self.cameras, self.U,
+                     self.limits, self.scorer, self.frame_key, self.heading_of_travel, self.lean_prior)
+
     def calibrate(self, frame: int, q: np.ndarray, w: np.ndarray, shape: BodyShape):
         """The subject's proportions fitted with the poses of frames spread over the recording
         (:func:`ipf_jax.tracking.shape_fit.calibrate_at_start`); returns the first frame's
         particles, weights, the shape and the fit's record."""
         s = self.settings
-        scene = Scene(lambda f: tuple(self.observe(f)[:2]), self.frames, self.cameras, self.U,
-                      self.limits, self.scorer, self.frame_key, self.heading_of_travel)
+        scene = self.fit_scene()
         light = {} if s.init == init_settings() else {"frame_init": s.init}  # --init-budget small
         q, w, shape, _, doc = calibrate_at_start(scene, frame, q, w, shape, height_m=s.height_m,
                                                  settings=s.shape_fit, seed=s.seed, **light)
