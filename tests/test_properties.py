@@ -289,7 +289,7 @@ def test_lean_angles_turn_with_the_scene_and_the_compiled_prior_matches(seed, tu
     """The one-camera lean prior reads the lean along the camera's line of sight: turning the body
     and the camera together about the vertical changes neither angle; the compiled float32 factors
     (padded calls of any length) agree with the float64 NumPy reference."""
-    from ipf_jax.tracking.prior import lean_angles, upright_to_camera
+    from ipf_jax.tracking.prior import lean_angles, upright_reference, upright_to_camera
 
     rng = np.random.default_rng(seed)
     values = np.asarray(default_shape(1.7).values, float)
@@ -307,5 +307,5 @@ def test_lean_angles_turn_with_the_scene_and_the_compiled_prior_matches(seed, tu
     after = lean_angles(turned, values, up, rot @ centre)
     for a, b in zip(before, after):
         np.testing.assert_allclose(a, b, atol=1e-9)
-    reference = np.exp(-0.5 * (before[0] ** 2 + before[1] ** 2) / np.deg2rad(10.0) ** 2)
+    reference = upright_reference(q, values, up, centre, 10.0)
     np.testing.assert_allclose(upright_to_camera(q, values, up, centre, 10.0), reference, atol=1e-5)

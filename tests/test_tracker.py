@@ -261,7 +261,7 @@ def test_one_camera_weights_carry_the_lean_prior_and_several_do_not(scene):
     """With one camera every weight is the likelihood times the prior against leaning along its
     line of sight; a lean across it costs nothing; with two cameras the prior is off."""
     from ipf_jax.body.model import DOF_INDEX
-    from ipf_jax.tracking.prior import lean_angles, upright_to_camera
+    from ipf_jax.tracking.prior import lean_angles, upright_reference, upright_to_camera
     from ipf_jax.tracking.tracker import Tracker
 
     cams, q, masks = scene
@@ -278,8 +278,7 @@ def test_one_camera_weights_carry_the_lean_prior_and_several_do_not(scene):
     assert np.all(factors <= 1.0) and np.all(upright_to_camera(particles, SHAPE.values, upright.U,
                                                                 upright.cameras[0].centre, 0.0) == 1)
     # the compiled float32 kernel against the float64 NumPy reference, one body and a body each
-    trunk, legs = lean_angles(particles, SHAPE.values, upright.U, upright.cameras[0].centre)
-    reference = np.exp(-0.5 * (trunk ** 2 + legs ** 2) / np.deg2rad(10.0) ** 2)
+    reference = upright_reference(particles, SHAPE.values, upright.U, upright.cameras[0].centre, 10.0)
     np.testing.assert_allclose(factors, reference, atol=FACTOR_ATOL)
     bodies = np.tile(np.asarray(SHAPE.values), (len(particles), 1))
     np.testing.assert_allclose(upright_to_camera(particles, bodies, upright.U, upright.cameras[0].centre,
@@ -305,3 +304,47 @@ def test_one_camera_weights_carry_the_lean_prior_and_several_do_not(scene):
     none = Tracker(MemoryDataset(cams, masks, fps=20.0), SETTINGS._replace(lean_prior_deg=0.0))
     obs2 = two.observe(0).obs
     assert np.array_equal(two.measure(obs2, SHAPE)(particles), none.measure(obs2, SHAPE)(particles))
+
+
+def test_lean_prior_edge_cases():
+    """The lean prior: no underflow to 0 with a small sigma, 0 for a particle with NaNs, faded out
+    for a camera straight above the person, whole for one looking across."""
+    from ipf_jax.body.model import DOF_INDEX
+    from ipf_jax.tracking.prior import upright_reference, upright_to_camera
+
+    up = np.eye(3)
+    body = np.zeros((3, len(DOF_INDEX)))
+    body[:, 2] = 1.0
+    body[:, DOF_INDEX["root_pitch"]] = 0.5  # 29 deg
+    body[2, 5] = np.nan
+    across = np.array([5.0, 0.0, 1.0])
+    f = upright_to_camera(body, SHAPE.values, up, across, 1.0)
+    assert 0.0 < f[0] < 1e-100 and f[2] == 0.0  # float32 would give 0; NaNs give no weight
+    np.testing.assert_allclose(f[:2], upright_reference(body[:2], SHAPE.values, up, across, 1.0), rtol=1e-3)
+    above = np.array([0.0, 0.0, 4.0])  # straight above the hips: no line of sight to lean along
+    assert np.all(upright_to_camera(body[:2], SHAPE.values, up, above, 10.0) == 1.0)
+    steep = np.array([2.0, 0.0, 5.0])  # 63 deg below the horizon: partly faded
+    full = np.array([3.0, 0.0, 4.0])
+    f_steep, f_full = (upright_to_camera(body[:1], SHAPE.values, up, c, 10.0)[0] for c in (steep, full))
+    assert f_full < f_steep < 1.0
+
+
+def test_the_shape_fit_scores_carry_the_prior(scene):
+    """What the shape fit scores (``shape_measure``) is the likelihood times the scene's prior."""
+    from ipf_jax.tracking.shape_fit import shape_measure
+    from ipf_jax.tracking.tracker import Tracker
+
+    cams, q, masks = scene
+    tr = Tracker(MemoryDataset(cams[:1], masks[:, :1], fps=20.0), SETTINGS._replace(lean_prior_deg=10.0))
+    obs = tr.observe(0).obs
+    particles = np.repeat(q[:1], 3, axis=0)
+    particles[1:, 3] += [0.1, 0.3]
+    bodies = np.tile(np.asarray(SHAPE.values, np.float32), (3, 1))
+    plain = shape_measure(tr.scorer, obs)(particles, bodies)
+    halved = shape_measure(tr.scorer, obs, lambda p, b: np.full(len(p), 0.5))(particles, bodies)
+    np.testing.assert_array_equal(halved, 0.5 * plain)
+    prior = tr.fit_scene().prior
+    assert prior is not None
+    np.testing.assert_allclose(shape_measure(tr.scorer, obs, prior)(particles, bodies),
+                               plain * prior(particles, bodies), rtol=1e-12)
+    assert np.all(plain > 0)

@@ -73,6 +73,10 @@ def _within(lo, hi, unit=""):
     return check
 
 
+def _lean_sigma(v):
+    require(v == 0 or 0.5 <= v <= 90, "must be 0 (off) or 0.5..90 deg")
+
+
 def _seed(v):
     require(0 <= v < 2 ** 32, f"must be 0..{2 ** 32 - 1} (a 32-bit unsigned integer)")
 
@@ -197,7 +201,7 @@ OPTIONS: tuple[Option, ...] = (
            "person stands upright along its line of sight, which one view cannot see: every weight "
            "times exp(-(trunk^2 + legs^2) / 2 sigma^2) of the trunk's and the legs' lean towards or "
            "away from the camera, sigma in degrees (default 10; 0: off; ignored with several "
-           "cameras)", check=_within(0.0, 90.0, " deg"), metavar="SIGMA"),
+           "cameras)", check=_lean_sigma, metavar="SIGMA"),
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)",
            check=_seed),

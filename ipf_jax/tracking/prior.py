@@ -19,7 +19,13 @@ silhouette's small changes of size; left free, the tracked body leaned away from
 within 4.5 and 8.4 deg. The factor is ``exp(-(trunk^2 + legs^2) / (2 sigma^2))`` of the trunk's
 (hips' midpoint -> shoulders' midpoint) and the legs' (ankles' midpoint -> hips' midpoint) lean in
 the vertical plane through the camera and the hips (:func:`lean_angles`); a lean across the line
-of sight, which the silhouette shows, costs nothing. The shape fit's scores carry it too (a body
+of sight, which the silhouette shows, costs nothing. "Upright" is the joint centres' line, as
+the ground truth's is measured: the model's rest pose, whose hip joints sit ``hip_forward`` in
+front of the pelvis, reads 4.7 deg back when it faces the camera, so the prior flexes its trunk
+that much forward (the rendered walkers' own hips-to-shoulders line is within 4.5 deg of vertical).
+The prior is decided per data set (one camera), not per frame: a rig with one camera left active
+on some frames gets none; it fades out for a camera steeply above the person (:data:`STEEP_FULL`).
+The shape fit's scores carry it too (a body
 fitted leaning is a body of the wrong proportions). The measured effect is in
 docs/single_camera.md; its cost, on ``sequenceB_2`` with one camera under the profiler, 2.5 % of
 an IPF frame and 5 % of a factored-IPF frame (``benchmarks/frame_profile.py``, stage "priors").
@@ -52,9 +58,18 @@ _MID_SHOULDER = ("trunk", (0, 0, ("+trunk", "-shoulder_drop")))
 _ANKLES = (("left_shank", (0, 0, "-shank")), ("right_shank", (0, 0, "-shank")))
 
 
+#: the prior fades out for a camera that looks steeply down on the person: full while the
+#: camera -> hips direction is at least this horizontal (its horizontal share; 0.5: 60 deg below
+#: the horizon), none from :data:`STEEP_OFF` down (above the person the "line of sight" has no
+#: horizontal direction to lean along)
+STEEP_FULL, STEEP_OFF = 0.5, 0.2
+
+
 def _leans(q_t, sv, up, centre, xp):
-    """(trunk, legs) lean angles of particles ``q_t`` (D, B), bodies ``sv`` (P,) or (P, B), in the
-    array module ``xp`` (NumPy: the reference; jax.numpy: the tracker's compiled kernel)."""
+    """(trunk, legs, level) of particles ``q_t`` (D, B), bodies ``sv`` (P,) or (P, B), in the array
+    module ``xp`` (NumPy: the reference; jax.numpy: the tracker's compiled kernel): the two lean
+    angles and how much of the prior applies, 1 for a camera not steeply above the person (the
+    steep fade, :data:`STEEP_FULL`)."""
     world = frame_axes(q_t, sv, up, ("pelvis", "trunk", "left_shank", "right_shank"), xp=xp)
     hip = place(world, *_MID_HIP, sv)
     shoulder = place(world, *_MID_SHOULDER, sv)
@@ -65,6 +80,8 @@ def _leans(q_t, sv, up, centre, xp):
     rise = sum(a * v for a, v in zip(away, vertical))
     away = [a - rise * v for a, v in zip(away, vertical)]
     norm = xp.sqrt(sum(a * a for a in away))
+    slant = xp.sqrt(norm * norm + rise * rise)
+    level = xp.clip((norm / xp.maximum(slant, 1e-12) - STEEP_OFF) / (STEEP_FULL - STEEP_OFF), 0.0, 1.0)
 
     def lean(a, b):
         v = [bi - ai for ai, bi in zip(a, b)]
@@ -72,7 +89,7 @@ def _leans(q_t, sv, up, centre, xp):
         length = xp.sqrt(sum(vi * vi for vi in v)) * norm
         return xp.arcsin(xp.clip(along / xp.maximum(length, 1e-12), -1.0, 1.0))
 
-    return lean(hip, shoulder), lean(ankle, hip)
+    return lean(hip, shoulder), lean(ankle, hip), level
 
 
 def lean_angles(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
@@ -85,17 +102,29 @@ def lean_angles(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
     shape_values : (P,) one body, or (N, P) a body per particle.
     up : (3, 3) the tracker's rotation of the body's canonical frame (z up) into the world.
     """
+    return _reference(particles, shape_values, up, centre)[:2]
+
+
+def _reference(particles, shape_values, up, centre):
     q_t = np.ascontiguousarray(np.asarray(particles, float).T)  # each DOF a contiguous row
     sv = np.asarray(shape_values, float)
     return _leans(q_t, sv.T if sv.ndim == 2 else sv, np.asarray(up, float),
                   np.asarray(centre, float), np)
 
 
+def upright_reference(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
+                      centre: np.ndarray, sigma_deg: float) -> np.ndarray:
+    """:func:`upright_to_camera` in NumPy float64 (the reference the tests check it against)."""
+    trunk, legs, level = _reference(particles, shape_values, up, centre)
+    return np.exp(-0.5 * level * (trunk ** 2 + legs ** 2) / np.deg2rad(sigma_deg) ** 2)
+
+
 @jax.jit
 def _upright_jit(q_t, shape_values, up, centre, inv_sigma):
-    """q_t (D, B) particles as rows; shape_values (P,) or (P, B)."""
-    trunk, legs = _leans(q_t, shape_values, up, centre, jnp)
-    return jnp.exp(-0.5 * ((trunk * inv_sigma) ** 2 + (legs * inv_sigma) ** 2))
+    """q_t (D, B) particles as rows; shape_values (P,) or (P, B). Returns the exponent: the host
+    takes its exp in float64 (float32 would underflow to 0 for a small sigma)."""
+    trunk, legs, level = _leans(q_t, shape_values, up, centre, jnp)
+    return 0.5 * level * ((trunk * inv_sigma) ** 2 + (legs * inv_sigma) ** 2)
 
 
 #: smallest padded call of the compiled prior; calls are padded to powers of two from it, so a
@@ -106,7 +135,8 @@ MIN_BLOCK = 64
 def upright_to_camera(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
                       centre: np.ndarray, sigma_deg: float) -> np.ndarray:
     """(N,) prior factors in (0, 1]: ``exp(-(trunk^2 + legs^2) / 2 sigma^2)`` of the lean angles
-    along the camera's line of sight (:func:`lean_angles`); all 1 with ``sigma_deg`` 0.
+    along the camera's line of sight (:func:`lean_angles`), faded out for a camera steeply above
+    the person (:data:`STEEP_FULL`); all 1 with ``sigma_deg`` 0; 0 for a particle with NaNs.
 
     One compiled call in float32, padded to a power of two (at least :data:`MIN_BLOCK`): 0.25 /
     0.9 / 4.0 ms for 64 / 650 / 6561 particles against the NumPy reference's 1.6 / 2.7 / 9.8 on a
@@ -123,4 +153,5 @@ def upright_to_camera(particles: np.ndarray, shape_values: np.ndarray, up: np.nd
         sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
     out = _upright_jit(q_t, sv, np.asarray(up, np.float32), np.asarray(centre, np.float32),
                        np.float32(1.0 / np.deg2rad(sigma_deg)))
-    return np.asarray(out, np.float64)[:n]
+    factors = np.exp(-np.asarray(out, np.float64)[:n])
+    return np.where(np.isfinite(factors), factors, 0.0)  # a particle with NaNs: no weight
