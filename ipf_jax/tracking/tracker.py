@@ -277,9 +277,11 @@ class Tracker:
         return lambda particles, values: upright_to_camera(particles, values, self.U, centre, sigma)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
-        """``fn(particles, shape=None) -> weights`` on ``obs`` (times the pelvis prior,
-        :mod:`.prior`); with ``log`` every call's particles and counts are appended to it (the loss
-        test reads the estimate's there)."""
+        """``fn(particles, shape=None) -> weights`` on ``obs`` (times the priors, :mod:`.prior`);
+        with ``log`` every call's particles and counts are appended to it (the loss test reads the
+        estimate's there)."""
+        lean = self.lean_prior
+
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
             s = shp or shape
             if s is not None and s is not self.scorer.shape:
@@ -290,8 +292,8 @@ class Tracker:
             w = weights_from_counts(counts, obs.active)[0]
             if self.settings.pelvis_prior_deg > 0:  # a weak prior that the pelvis is level
                 w = w * level_pelvis(particles, self.settings.pelvis_prior_deg)
-            if self.lean_prior is not None:  # upright along one camera's line of sight
-                w = w * self.lean_prior(particles, (s or self.scorer.shape).values)
+            if lean is not None:  # upright along one camera's line of sight
+                w = w * lean(particles, (s or self.scorer.shape).values)
             return w
         return fn
 
