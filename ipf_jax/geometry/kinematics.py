@@ -183,6 +183,30 @@ SEGMENT_ENDS = np.array([[CAPSULE_ENDS.index(_end_key(s.frame, e)) for e in (s.a
 SEGMENT_RADII = np.array([[SHAPE_INDEX[s.r_a], SHAPE_INDEX[s.r_b]] for s in SEGMENTS])
 
 
+#: smallest padded host call of a particle-last kernel (:func:`particles_as_rows`); calls are padded
+#: to powers of two from it, so a run compiles a handful of sizes (filters' calls vary in length)
+MIN_BLOCK = 64
+
+
+def particles_as_rows(particles: np.ndarray, shape_values=None) -> tuple:
+    """Host-side layout for the particle-last kernels (:func:`capsule_ends` and its callers).
+
+    (N, D) particles -> ``(q_t, sv, n)``: ``q_t`` (D, B) float32 with each DOF a contiguous row,
+    B the next power of two >= N (at least :data:`MIN_BLOCK`), the padding columns copies of the
+    first particle (a real pose: no 0/0 on the padding); ``sv`` the shape values in float32, (P,)
+    as given or, for a body per particle (N, P), as (P, B) padded the same way; ``n`` = N, the
+    columns to keep of a result. N must be > 0."""
+    n = len(particles)
+    block = max(MIN_BLOCK, 1 << (n - 1).bit_length())
+    q_t = np.empty((np.shape(particles)[1], block), np.float32)
+    q_t[:, :n] = np.asarray(particles).T
+    q_t[:, n:] = q_t[:, :1]
+    sv = None if shape_values is None else np.asarray(shape_values, np.float32)
+    if sv is not None and sv.ndim == 2:
+        sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
+    return q_t, sv, n
+
+
 def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -> jnp.ndarray:
     """Batched FK, particle axis last (JAX): (D, B) -> (3, K, B) world centres of the K distinct
     capsule ends (:data:`CAPSULE_ENDS`; :data:`SEGMENT_ENDS` maps segments onto them).

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..body.limits import Limits
 from ..body.shape import BodyShape
-from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
+from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends, particles_as_rows
 
 DEFAULT_RANGE = (-0.03, 0.10)  # metres: 3 cm into soft ground/shoes, 10 cm of flight
 
@@ -44,23 +44,16 @@ def _lowest_jit(q_t, shape_values, up):
     return jnp.min(low, axis=0)
 
 
-#: smallest padded call; calls are padded to powers of two from it (a handful of compiled sizes)
-MIN_BLOCK = 64
-
-
 def lowest_heights(particles: np.ndarray, shape: BodyShape, U: np.ndarray) -> np.ndarray:
     """(N,) height above the floor of each particle's lowest capsule surface point (metres).
 
-    One compiled float32 call padded to a power of two (at least :data:`MIN_BLOCK`), particle axis
-    last; ``tracking.shape_fit.lowest_heights`` is the float64 NumPy version the tests compare."""
-    n = len(particles)
-    if n == 0:
+    One compiled float32 call, particle axis last, padded by
+    :func:`~ipf_jax.geometry.kinematics.particles_as_rows`; ``tracking.shape_fit.lowest_heights``
+    is the float64 NumPy version the tests compare."""
+    if len(particles) == 0:
         return np.empty(0)
-    block = max(MIN_BLOCK, 1 << (n - 1).bit_length())
-    q_t = np.empty((np.shape(particles)[1], block), np.float32)  # each DOF a contiguous row
-    q_t[:, :n] = np.asarray(particles).T
-    q_t[:, n:] = q_t[:, :1]
-    out = _lowest_jit(q_t, np.asarray(shape.values, np.float32), np.asarray(U, np.float32))
+    q_t, sv, n = particles_as_rows(particles, shape.values)
+    out = _lowest_jit(q_t, sv, np.asarray(U, np.float32))
     return np.asarray(out, np.float64)[:n]
 
 

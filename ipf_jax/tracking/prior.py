@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..body.model import DOF_INDEX
-from ..geometry.kinematics import frame_axes, place
+from ..geometry.kinematics import frame_axes, particles_as_rows, place
 
 ROLL = DOF_INDEX["root_roll"]
 
@@ -127,30 +127,20 @@ def _upright_jit(q_t, shape_values, up, centre, inv_sigma):
     return 0.5 * level * ((trunk * inv_sigma) ** 2 + (legs * inv_sigma) ** 2)
 
 
-#: smallest padded call of the compiled prior; calls are padded to powers of two from it, so a
-#: run compiles a handful of sizes (the filters' and searches' calls vary in length)
-MIN_BLOCK = 64
-
-
 def upright_to_camera(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
                       centre: np.ndarray, sigma_deg: float) -> np.ndarray:
     """(N,) prior factors in (0, 1]: ``exp(-(trunk^2 + legs^2) / 2 sigma^2)`` of the lean angles
     along the camera's line of sight (:func:`lean_angles`), faded out for a camera steeply above
     the person (:data:`STEEP_FULL`); all 1 with ``sigma_deg`` 0; 0 for a particle with NaNs.
 
-    One compiled call in float32, padded to a power of two (at least :data:`MIN_BLOCK`): 0.25 /
+    One compiled call in float32, padded to a power of two by
+    :func:`~ipf_jax.geometry.kinematics.particles_as_rows`: 0.25 /
     0.9 / 4.0 ms for 64 / 650 / 6561 particles against the NumPy reference's 1.6 / 2.7 / 9.8 on a
     2-core EPYC; tests/test_tracker.py checks it against :func:`lean_angles`."""
     n = len(particles)
     if sigma_deg <= 0 or n == 0:
         return np.ones(n)
-    block = max(MIN_BLOCK, 1 << (n - 1).bit_length())
-    q_t = np.empty((np.shape(particles)[1], block), np.float32)  # each DOF a contiguous row
-    q_t[:, :n] = np.asarray(particles).T
-    q_t[:, n:] = q_t[:, :1]  # padded with a real particle: no 0/0 on the padding
-    sv = np.asarray(shape_values, np.float32)
-    if sv.ndim == 2:  # (N, P) -> (P, block)
-        sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
+    q_t, sv, n = particles_as_rows(particles, shape_values)
     out = _upright_jit(q_t, sv, np.asarray(up, np.float32), np.asarray(centre, np.float32),
                        np.float32(1.0 / np.deg2rad(sigma_deg)))
     factors = np.exp(-np.asarray(out, np.float64)[:n])
