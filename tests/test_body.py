@@ -15,6 +15,8 @@ from ipf_jax.body import (
     model,
 )
 from ipf_jax.body.limits import PRESET_DIR
+from ipf_jax.body.model import SHAPE_INDEX
+from ipf_jax.body.shape import BodyShape
 from ipf_jax.errors import IPFError
 
 
@@ -85,6 +87,39 @@ def test_hip_joints_sit_in_front_of_the_pelvis_and_older_files_keep_theirs(tmp_p
     with pytest.warns(IPFWarning, match="written before hip_forward"):
         old = load_shape(path)
     assert old["hip_forward"] == 0.0 and hips_ahead(old) == pytest.approx([0.0, 0.0], abs=1e-12)
+
+
+def test_the_pelvis_reaches_crotch_depth_below_the_hips_whatever_its_breadth(tmp_path):
+    # the pelvis capsule's lowest point (the crotch of a frontal silhouette) lies crotch_depth
+    # below the hip joints: a broader pelvis (a larger pelvis_r) does not lower it; a file written
+    # with the older pelvis_up (the capsule's axis over the hips) loads as the same body
+    from ipf_jax.errors import IPFWarning
+    from ipf_jax.geometry.host import forward_kinematics
+
+    def crotch_below_hips(shape):
+        pose = forward_kinematics(np.zeros(NUM_DOF), shape.values, np.eye(3))
+        hip_z = pose.points[POINT_NAMES.index("left_hip"), 2]
+        pelvis = SEGMENT_NAMES.index("pelvis")
+        return hip_z - (pose.seg_a[pelvis, 2] - shape["pelvis_r"])
+
+    s = default_shape()
+    assert crotch_below_hips(s) == pytest.approx(s["crotch_depth"], abs=1e-12)
+    broad = s.values.copy()
+    broad[SHAPE_INDEX["pelvis_r"]] *= 1.2
+    assert crotch_below_hips(BodyShape(broad, s.height_m)) == pytest.approx(s["crotch_depth"], abs=1e-12)
+    doc = s.to_json()
+    depth = doc["params"].pop("crotch_depth")
+    doc["params"]["pelvis_up"] = doc["params"]["pelvis_r"] - depth
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(doc))
+    with pytest.warns(IPFWarning, match="pelvis_up"):
+        old = load_shape(path)
+    assert old["crotch_depth"] == pytest.approx(depth, abs=1e-12)
+    assert np.allclose(old.values, s.values, atol=1e-12)
+    doc["params"]["pelvis_up"] = 0.0175  # the template before crotch_depth: a deeper pelvis
+    path.write_text(json.dumps(doc))
+    with pytest.warns(IPFWarning, match="pelvis_up"):
+        assert load_shape(path)["crotch_depth"] == pytest.approx(s["pelvis_r"] - 0.0175)
 
 
 def test_limits_presets():

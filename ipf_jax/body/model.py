@@ -221,8 +221,9 @@ def _arm_segments(side: str) -> tuple[Segment, ...]:
 
 
 SEGMENTS: tuple[Segment, ...] = (
-    Segment("pelvis", "pelvis", (0, "+hip_half_width", ("-hip_down", "+pelvis_up")),
-            (0, "-hip_half_width", ("-hip_down", "+pelvis_up")), "pelvis_r", "pelvis_r"),
+    # the pelvis capsule reaches crotch_depth below the hip joints (its axis pelvis_r above that)
+    Segment("pelvis", "pelvis", (0, "+hip_half_width", ("-hip_down", "-crotch_depth", "+pelvis_r")),
+            (0, "-hip_half_width", ("-hip_down", "-crotch_depth", "+pelvis_r")), "pelvis_r", "pelvis_r"),
     Segment("trunk_left", "trunk", (0, "+trunk_half_width_low", "+trunk_low"),
             (0, "+trunk_half_width_high", ("+trunk", "-trunk_top_gap")), "trunk_r_low", "trunk_r_high"),
     Segment("trunk_right", "trunk", (0, "-trunk_half_width_low", "+trunk_low"),
@@ -244,7 +245,7 @@ SHAPE_PARAM_NAMES: tuple[str, ...] = (
     "foot_back", "foot_down", "foot_tip", "foot_tip_down",
     "trunk", "shoulder_half_width", "shoulder_drop", "neck",
     "upper_arm", "forearm", "hand",
-    "pelvis_up", "trunk_low", "trunk_top_gap", "trunk_half_width_low", "trunk_half_width_high",
+    "crotch_depth", "trunk_low", "trunk_top_gap", "trunk_half_width_low", "trunk_half_width_high",
     "head_forward", "head_low", "head_high",
     "pelvis_r", "trunk_r_low", "trunk_r_high", "neck_r", "head_r",
     "thigh_r0", "thigh_r1", "shank_r0", "shank_r1", "foot_r0", "foot_r1",

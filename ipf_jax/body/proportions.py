@@ -22,7 +22,9 @@ what a fit can measure, and the hip joint centres are placed from it with Harrin
 ``t = SOFT_TISSUE * H`` is the lateral margin from the ASIS to the skin, fixed at the template's
 value (the template's 87.5 mm hip half-width at 1.75 m is this rule with ``t`` = 57 mm). So a
 wider pelvis moves the hips apart by 0.66 of its half-breadth change, and the rest is soft tissue
-(``pelvis_r = B - hip_half_width``).
+(``pelvis_r = B - hip_half_width``). The pelvis capsule's lowest point, the crotch of a frontal
+silhouette, lies ``crotch_depth`` below the hip joints (a trunk-group length): a broader or
+softer pelvis widens the capsule without lowering the crotch, which would lift the hips.
 
 **Bounds** (:data:`BOUNDS`): each parameter's ratio to standing height may lie within a fraction
 of the template's ratio (Winter 2009 / Drillis & Contini, see ``presets/shape_default.json``):
@@ -66,7 +68,7 @@ GROUPS: tuple[Group, ...] = (
     Group("foot", "length", ("heel_back", "toe_forward", "foot_back", "foot_tip")),
     # sole-to-ankle height: the foot's vertical offsets (shoes raise it; their size: foot_girth)
     Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down")),
-    Group("trunk", "length", ("hip_down", "trunk", "pelvis_up", "trunk_low", "trunk_top_gap",
+    Group("trunk", "length", ("hip_down", "trunk", "crotch_depth", "trunk_low", "trunk_top_gap",
                               "shoulder_drop", "hip_forward")),
     Group("head", "length", ("neck", "head_forward", "head_low", "head_high")),
     Group("upper_arm", "length", ("upper_arm",)),
@@ -98,6 +100,10 @@ BOUNDS = {"length": (0.15, 0.15), "breadth": (0.20, 0.20), "girth": (0.30, 0.30)
 #: heel and sole (68 -> 92 mm at 1.75 m). Other groups: the template (1).
 PRIOR_FACTORS = {"ankle": 1.70}
 HIP_SPACING_BOUND = 0.30  # hip_half_width follows the pelvis breadth at 0.66 of its change
+#: shape files written before ``crotch_depth`` (2026-12-05) reached 1.5-1.7x today's template
+#: ratio below the hips (the pelvis capsule's axis was a fixed height over the hips, its radius
+#: grew with the breadth); they stay valid
+CROTCH_LEGACY_BOUND = 0.80
 
 # Harrington et al. 2007: hip-centre half-spacing = 0.33 PW + 7.3 mm (PW = inter-ASIS width)
 HARRINGTON_SLOPE = 0.33
@@ -155,6 +161,7 @@ def _param_bounds() -> tuple[np.ndarray, np.ndarray]:
             lo[_I[n]], hi[_I[n]] = BOUNDS[g.kind]
     lo[_I["hip_half_width"]] = hi[_I["hip_half_width"]] = HIP_SPACING_BOUND
     lo[_I["hip_forward"]] = 1.0  # 0 is an older shape file's (hips in the pelvis's plane)
+    hi[_I["crotch_depth"]] = CROTCH_LEGACY_BOUND  # older files' deeper pelvis (module doc)
     return TEMPLATE_RATIO * (1 - lo), TEMPLATE_RATIO * (1 + hi)
 
 
