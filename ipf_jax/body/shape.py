@@ -97,24 +97,24 @@ def shape_from_json(doc: dict, path: str | Path | None = None) -> BodyShape:
 
 
 def with_legacy_params(params: dict, path: str | Path | None = None, warn: bool = True) -> dict:
-    """``params`` with the parameters a file written before them lacks (:data:`LEGACY_PARAMS`:
-    the values that keep its body as it was), with one warning naming them."""
-    params = dict(params)
+    """``params`` as the current model reads them, for a file written before some parameters:
+    those it lacks get the values that keep its body as it was (:data:`LEGACY_PARAMS`), and
+    ``pelvis_up`` (the pelvis capsule's axis over the hips) becomes ``crotch_depth = pelvis_r -
+    pelvis_up``; one warning names what was done."""
+    params, notes = dict(params), []
     if "pelvis_up" in params and "crotch_depth" not in params and "pelvis_r" in params:
-        # written before the crotch depth (the pelvis capsule's axis was pelvis_up over the hips)
         try:
             params["crotch_depth"] = float(params["pelvis_r"]) - float(params.pop("pelvis_up"))
         except (TypeError, ValueError):
             raise IPFError("shape parameters must be numbers (metres)", path) from None
-        if warn:
-            where = f"{path}: " if path is not None else ""
-            warnings.warn(f"{where}a shape written with pelvis_up: read as crotch_depth = pelvis_r - "
-                          "pelvis_up, the same body", IPFWarning, stacklevel=3)
+        notes.append("pelvis_up read as crotch_depth = pelvis_r - pelvis_up")
     added = {n: v for n, v in LEGACY_PARAMS.items() if n not in params}
-    if added and warn:
+    if added:
+        notes.append(f"written before {', '.join(added)}: "
+                     f"{', '.join(f'{n} = {v:g}' for n, v in added.items())}")
+    if notes and warn:
         where = f"{path}: " if path is not None else ""
-        warnings.warn(f"{where}a shape written before {', '.join(added)}: "
-                      f"{', '.join(f'{n} = {v:g}' for n, v in added.items())} keeps its body as it was "
+        warnings.warn(f"{where}an older shape ({'; '.join(notes)}) keeps its body as it was "
                       "(refit for the current model)", IPFWarning, stacklevel=3)
     return {**added, **params}
 

@@ -188,7 +188,7 @@ SEGMENT_RADII = np.array([[SHAPE_INDEX[s.r_a], SHAPE_INDEX[s.r_b]] for s in SEGM
 MIN_BLOCK = 64
 
 
-def particles_as_rows(particles: np.ndarray, shape_values=None) -> tuple:
+def particles_as_rows(particles: np.ndarray, shape_values: np.ndarray) -> tuple:
     """Host-side layout for the particle-last kernels (:func:`capsule_ends` and its callers).
 
     (N, D) particles -> ``(q_t, sv, n)``: ``q_t`` (D, B) float32 with each DOF a contiguous row,
@@ -201,8 +201,8 @@ def particles_as_rows(particles: np.ndarray, shape_values=None) -> tuple:
     q_t = np.empty((np.shape(particles)[1], block), np.float32)
     q_t[:, :n] = np.asarray(particles).T
     q_t[:, n:] = q_t[:, :1]
-    sv = None if shape_values is None else np.asarray(shape_values, np.float32)
-    if sv is not None and sv.ndim == 2:
+    sv = np.asarray(shape_values, np.float32)
+    if sv.ndim == 2:
         sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
     return q_t, sv, n
 
