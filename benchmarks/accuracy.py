@@ -10,7 +10,10 @@ limb joints: MPJPE, the error left once each joint's constant offset is removed,
 (all 12, and hips/knees/ankles), lost frames (> 200 mm) and the worst five frames. Frames the
 tracker declared ``lost`` (nan rows) are not scored in those; ``mpjpe_guess_mm`` and
 ``lost_frames_guess`` score every frame, with the lost frames' best guesses from ``run.json``
-(``declared_lost`` counts them; without any, they equal the plain figures). Finished sets
+(``declared_lost`` counts them; without any, they equal the plain figures). ``lowpass_mm`` scores
+the joints low-passed as ``ipf-jax track --smooth`` writes them (``joints_smoothed.csv``: the gait
+analysis' 5 Hz zero-lag Butterworth, docs/export.md), what a gait lab would filter the trajectories
+to; the other columns score the raw per-frame estimates of ``joints.csv``. Finished sets
 are skipped on a rerun (delete ``DIR/runs/SET`` to redo one). Writes ``DIR/accuracy.json`` (every
 number, per joint too) and ``DIR/accuracy.md`` (the table).
 
@@ -45,6 +48,9 @@ from ipf_jax.analysis.evaluation.metrics import (
     loss_summary,
     systematic_doc,
 )
+from ipf_jax.analysis.evaluation.metrics import evaluate
+from ipf_jax.analysis.export.smoothed import smooth_joints
+from ipf_jax.data.rundir import read_run
 from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv, write_rows
 from ipf_jax.paths import shared_data_dir
 from ipf_jax.profiling import machine
@@ -116,12 +122,14 @@ def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str |
         ev, _, _ = evaluate_files(with_best_guesses(run_dir, run), root / name / "ground_truth.csv")
         guess = {"mpjpe_guess_mm": 1000 * ev.mpjpe_m,
                  "lost_frames_guess": loss_summary(frame_errors(ev))["lost_frames"]}
-    ev, _, _ = evaluate_files(run_dir / "joints.csv", root / name / "ground_truth.csv")
+    ev, est, truth = evaluate_files(run_dir / "joints.csv", root / name / "ground_truth.csv")
+    low = evaluate(est._replace(points=smooth_joints(read_run(run_dir))[0]), truth)
     sysdoc = systematic_doc(ev)
     loss = loss_summary(frame_errors(ev))
     statuses = [r["status"] for r in run["per_frame"]]
     return {"set": name, "mpjpe_mm": 1000 * ev.mpjpe_m,
             "offset_free_mm": 1000 * sysdoc["mpjpe_offset_free_m"],
+            "lowpass_mm": 1000 * low.mpjpe_m,
             "mean_offset_mm": 1000 * sysdoc["mean_offset_m"],
             "leg_offset_mm": 1000 * sysdoc["mean_leg_offset_m"],
             "worst5_mm": 1000 * loss["worst5_mean_m"], "lost_frames": loss["lost_frames"],
@@ -152,7 +160,7 @@ def with_best_guesses(run_dir: Path, run: dict) -> Path:
     return out
 
 
-COLUMNS = ("set", "mpjpe_mm", "offset_free_mm", "mean_offset_mm", "leg_offset_mm", "worst5_mm",
+COLUMNS = ("set", "mpjpe_mm", "offset_free_mm", "lowpass_mm", "mean_offset_mm", "leg_offset_mm", "worst5_mm",
            "mpjpe_guess_mm", "lost_frames", "lost_frames_guess", "longest_lost_run", "declared_lost",
            "reinit", "height_m", "s_per_frame")
 
@@ -172,7 +180,7 @@ def markdown(rows: list[dict]) -> str:
     ok = [r for r in rows if "error" not in r]
     if ok:
         lines.append("| **mean** | " + " | ".join(
-            f"{np.mean([r[c] for r in ok]):.1f}" for c in COLUMNS[1:7]) + " |" + " |" * (len(COLUMNS) - 7))
+            f"{np.mean([r[c] for r in ok]):.1f}" for c in COLUMNS[1:8]) + " |" + " |" * (len(COLUMNS) - 8))
     return "\n".join(lines)
 
 
