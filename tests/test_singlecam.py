@@ -2,6 +2,7 @@
 leg swap detection and correction, on self-rendered scenes with known answers."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -12,7 +13,7 @@ from ipf_jax.body.model import DOF_INDEX, POINT_INDEX
 from ipf_jax.body.shape import default_shape
 from ipf_jax.cli import main
 from ipf_jax.data.rundir import joints_from_poses, read_run, write_run_dir
-from ipf_jax.errors import IPFError
+from ipf_jax.errors import IPFError, IPFWarning
 from ipf_jax.geometry import placement as pl
 from ipf_jax.geometry.posing import gait_pose, place_on_floor
 from ipf_jax.geometry.world import up_rotation
@@ -88,6 +89,87 @@ def test_camera_height_from_a_walking_person(walk_masks):
     assert abs(h - CAM_HEIGHT) < 0.05, h  # silhouette top/bottom vs standing height: a few cm
     with pytest.raises(IPFError, match="no person silhouette"):
         pl.camera_height_from_person(nominal, [np.zeros_like(masks[0])], UP, 1.7)
+
+
+SPOTS = [(0.0, 0.0), (0.5, 0.5), (-1.0, 1.0), (1.0, -0.5), (-0.5, -1.0), (0.3, 1.5)]
+
+
+def sharp_camera(centre=(0.0, -6.0, CAM_HEIGHT), target=(0.0, 0.0, CAM_HEIGHT)):
+    """640 x 480, f = 600 px: a pixel is 1 cm at 6 m."""
+    return look_at_camera(centre, target, width=640, height=480, focal_px=600.0, name="side")
+
+
+@pytest.fixture(scope="module")
+def standing_masks():
+    """The person standing at :data:`SPOTS`, seen by :func:`sharp_camera`."""
+    q = np.stack([standing_at(x, y) for x, y in SPOTS])
+    return q, render_masks(q, SHAPE, [sharp_camera()])[:, 0]
+
+
+def test_height_from_one_calibrated_view(standing_masks):
+    """Self-rendered (the tracker's own capsule body): a person's height from one calibrated
+    view, level or from above; the feet must be on the floor (a floating foot reads as a taller
+    person further away)."""
+    q, masks = standing_masks
+    h, per_frame = pl.height_from_view(sharp_camera(), list(masks), UP)
+    assert per_frame.shape == (len(masks),) and np.all(np.isfinite(per_frame))
+    assert abs(h - SHAPE.height_m) < 0.02, h  # a pixel is 1 cm
+    high = sharp_camera((0.0, -4.0, 2.6), (0.0, 0.0, 0.9))
+    h_high, _ = pl.height_from_view(high, list(render_masks(q, SHAPE, [high])[:, 0]), UP)
+    assert abs(h_high - SHAPE.height_m) < 0.035, h_high  # from above: the silhouette's ends are
+    # not the crown and the soles' lowest points (measured 2.8 cm over)
+
+
+def test_height_from_view_needs_a_camera_on_its_feet_and_whole_people(standing_masks):
+    _, masks = standing_masks
+    cam = sharp_camera()
+    # upside down (image rows and columns flipped, as bodytrack's cameras are): the same height
+    flip = np.diag([-1.0, -1.0, 1.0])
+    K = cam.K.copy()
+    K[0, 2], K[1, 2] = cam.width - 1 - cam.K[0, 2], cam.height - 1 - cam.K[1, 2]
+    flipped = dataclasses.replace(cam, R=flip @ cam.R, T=flip @ cam.T, K=K)
+    h, _ = pl.height_from_view(cam, list(masks), UP)
+    h_flip, _ = pl.height_from_view(flipped, [m[::-1, ::-1] for m in masks], UP)
+    assert h_flip == pytest.approx(h, abs=1e-6)
+    # rolled on its side: no answer
+    roll = np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])
+    side = dataclasses.replace(cam, R=roll @ cam.R, T=roll @ cam.T)
+    assert np.isnan(pl.height_from_view(side, list(masks), UP)[0])
+    # a person cut by the image's border is skipped; fewer than HEIGHT_MIN_FRAMES: no answer
+    cut = [m.copy() for m in masks]
+    for m in cut:
+        m[-1, np.flatnonzero(m.any(0))[0]] = True
+    assert np.all(np.isnan(pl.height_from_view(cam, cut, UP)[1]))
+    assert np.isnan(pl.height_from_view(cam, list(masks[: pl.HEIGHT_MIN_FRAMES - 1]), UP)[0])
+    # the camera below the floor (a wrong up axis): no answer
+    assert np.isnan(pl.height_from_view(cam, list(masks), -UP)[0])
+
+
+def test_one_camera_run_measures_the_height(standing_masks, tmp_path):
+    from ipf_jax.data.dataset import open_dataset
+    from ipf_jax.tracking.settings import TrackSettings
+    from ipf_jax.tracking.tracker import Tracker
+    from ipf_jax.viz.synthetic import write_dataset
+
+    _, masks = standing_masks
+    data = open_dataset(write_dataset(tmp_path / "data", [sharp_camera()], masks[:, None]))
+    assert Tracker(data, TrackSettings(up_axis="+z")).height_measured is None  # off by default
+    tracker = Tracker(data, TrackSettings(up_axis="+z", height_from_view=True))
+    got = tracker.height_measured
+    assert got["used"] and abs(got["height_m"] - SHAPE.height_m) < 0.02
+    assert tracker.settings.height_m == got["height_m"] and got["usable_frames"] == len(masks)
+    assert Tracker(data, TrackSettings(up_axis="+z", height_m=1.8,
+                                       height_from_view=True)).height_measured is None
+    # someone who does not stay upright (every other frame only the legs: a person crouching
+    # behind something) is searched instead
+    low = masks.copy()
+    for t in range(0, len(low), 2):
+        rows = np.flatnonzero(masks[t].any(1))
+        low[t][: rows[len(rows) // 2]] = False
+    crouch = open_dataset(write_dataset(tmp_path / "crouch", [sharp_camera()], low[:, None]))
+    with pytest.warns(IPFWarning, match="does not stay upright"):
+        got = Tracker(crouch, TrackSettings(up_axis="+z", height_from_view=True)).height_measured
+    assert not got["used"] and got["spread_m"] > 0.15 and got["height_m"] is not None
 
 
 def test_camera_at_height_keeps_orientation_and_intrinsics():

@@ -117,6 +117,58 @@ def camera_height_from_person(cam: Camera, masks: list[np.ndarray], up: np.ndarr
     return float(np.median(good)), est
 
 
+#: :func:`height_from_view`: the percentile of the per-frame estimates taken as the standing
+#: height (a walker's head is at its highest near mid-stance, a few frames of a stride)
+HEIGHT_PERCENTILE = 90
+#: fewest frames with a usable silhouette for :func:`height_from_view` to give an answer
+HEIGHT_MIN_FRAMES = 5
+#: steepest feet ray used (tangent of its depression: 1.0 = 45 deg below the horizon): from above,
+#: the highest silhouette pixel is no longer the top of the head
+HEIGHT_STEEPEST = 1.0
+#: the camera's image rows must be within about 25 deg of level (sine; either way up): a camera
+#: rolled on its side sees the body's width between its silhouette's top and bottom rows
+HEIGHT_ROLL = 0.42
+
+
+def height_from_view(cam: Camera, masks: list[np.ndarray], up: np.ndarray) -> tuple[float, np.ndarray]:
+    """A person's standing height (m) from ONE calibrated camera, and the (K,) per-mask estimates
+    (nan where a mask was not usable).
+
+    Single-view metrology on a flat floor (the plane ``up . X = 0``): the silhouette's lowest
+    point is on the floor, so the feet ray's depression (tangent ``t_f``) and the camera centre's
+    height ``c`` give the person's horizontal distance ``c / t_f``; the highest point's elevation
+    (tangent ``t_h``) then gives the height ``c (t_f + t_h) / t_f``. "Lowest" and "highest" are
+    read in the world (the two ends' rays' elevations), so a camera mounted upside down works too;
+    nan for a camera rolled on its side (:data:`HEIGHT_ROLL`).
+    A mask is skipped when its person touches the image's border (cut off), when the feet ray is
+    steeper than :data:`HEIGHT_STEEPEST` or does not go down. The answer is the
+    :data:`HEIGHT_PERCENTILE` th percentile (a walker's head bobs by 2-4 cm; the highest frames
+    are the upright ones), nan with fewer than :data:`HEIGHT_MIN_FRAMES` usable masks or a camera
+    at or below the floor. It needs the camera's height to be right, unlike :func:`stand_distance`.
+    """
+    est = np.full(len(masks), np.nan)
+    c = float(up @ cam.centre)
+    if not c > 0 or abs(float(up @ (cam.R.T @ np.array([1.0, 0.0, 0.0])))) > HEIGHT_ROLL:
+        return np.nan, est
+    for i, m in enumerate(masks):
+        m = np.asarray(m, bool)
+        ext = person_extent(m)
+        if ext is None:
+            continue
+        rows = np.flatnonzero(m.any(1))
+        cols = np.flatnonzero(m.any(0))
+        if rows[0] == 0 or rows[-1] == m.shape[0] - 1 or cols[0] == 0 or cols[-1] == m.shape[1] - 1:
+            continue  # cut off by the image's border
+        e = [_tan_elevation(viewing_ray(cam, *uv)[1], up) for uv in ext]
+        t_f, t_h = -min(e), max(e)
+        if 1e-3 < t_f <= HEIGHT_STEEPEST:
+            est[i] = c * (t_f + t_h) / t_f
+    good = est[np.isfinite(est)]
+    if len(good) < HEIGHT_MIN_FRAMES:
+        return np.nan, est
+    return float(np.percentile(good, HEIGHT_PERCENTILE)), est
+
+
 def camera_at_height(cam: Camera, up: np.ndarray, height: float) -> Camera:
     """The same camera (orientation, intrinsics) moved along ``up`` to ``height`` m above the floor."""
     c = cam.centre

@@ -197,6 +197,11 @@ OPTIONS: tuple[Option, ...] = (
            "level: every weight times exp(-roll^2 / 2 sigma^2), sigma in degrees, e.g. 20 for "
            "walking trials (silhouettes barely see the pelvis's sideways tilt; default 0: off, "
            "the silhouette likelihood alone)", check=_within(0.0, 90.0, " deg"), metavar="SIGMA"),
+    Option("height_from_view", "--height-from-view", "bool", False, "with ONE calibrated camera "
+           "and no height given (--height, dataset.json), use the standing height measured from the "
+           "silhouettes' lowest and highest points over the floor on 15 frames, when the person stays "
+           "upright (default off: the height is searched at initialisation; the camera's height "
+           "above the floor must be right; docs/single_camera.md)"),
     Option("lean_prior_deg", "--lean-prior", "float", 10.0, "with ONE camera, a prior that the "
            "person stands upright along its line of sight, which one view cannot see: every weight "
            "times exp(-(trunk^2 + legs^2) / 2 sigma^2) of the trunk's and the legs' lean towards or "

@@ -55,6 +55,7 @@ class TrackSettings(NamedTuple):
     origin_shift: bool = True  # body origin positioning from the silhouettes (tracking.origin)
     facing_travel: bool = True  # a walker's initialisation faces the way they travel (tracking.travel)
     pelvis_prior_deg: float = 0.0  # sigma of a weak prior that the pelvis is level (tracking.prior); 0: off
+    height_from_view: bool = False  # one camera, no height given: measured (geometry.placement)
     lean_prior_deg: float = 10.0  # sigma of a prior against leaning along one camera's line of sight (tracking.prior)
     floor_range: tuple[float, float] | None = None  # floor contact (tracking.contact); None = off
     shape_fit: ShapeFitSettings = ShapeFitSettings()  # the subject's proportions (frames 0: none)

@@ -26,6 +26,7 @@ import hashlib
 import json
 import threading
 import time
+import warnings
 from pathlib import Path
 from typing import Callable, NamedTuple
 
@@ -51,11 +52,12 @@ from ..data.runfiles import (
     write_json_atomic,
 )
 from ..data.silhouette import resize_mask
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
+from ..geometry.placement import HEIGHT_MIN_FRAMES, height_from_view
 from ..geometry.rays import blobs, camera_rays
 from ..geometry.world import AXES, detect_up_axis, up_rotation
 from ..likelihood.scorer import (
@@ -100,6 +102,11 @@ def without_full(mask: np.ndarray) -> np.ndarray:
     return np.zeros(np.shape(mask), bool) if is_full(mask) else mask
 
 
+#: one camera, no height given: frames the height is measured on, and the largest spread (90th -
+#: 10th percentile of the per-frame estimates) of a person who stays upright (the visible
+#: one-camera walks: 0.08-0.11 m; sit-to-stand: 0.58-0.63 m)
+HEIGHT_FRAMES = 15
+HEIGHT_SPREAD_M = 0.15
 VIEW_MARGIN = 0.5  # of the image size: how far outside its image a camera may place the person
 # (feet or head cut off by the border are common; a whole body half an image away is not)
 
@@ -202,6 +209,24 @@ class Tracker:
         require(up in AXES, f"unknown up axis {up!r} (choose one of {', '.join(AXES)})")
         self.up_axis = up
         self.U = up_rotation(up)
+        self.height_measured = None  # run.json: the one-camera height measurement, when made
+        if (settings.height_m is None and settings.height_from_view and settings.shape_file is None
+                and settings.init_pose is None and len(dataset.cameras) == 1):
+            self.height_measured = self.measure_height()
+            got = self.height_measured
+            if got["used"]:
+                settings = settings._replace(height_m=got["height_m"])
+                self.settings = settings
+            else:
+                why = (f"{got['usable_frames']} usable frames, {HEIGHT_MIN_FRAMES} needed"
+                       if got["usable_frames"] < HEIGHT_MIN_FRAMES else
+                       "the camera is rolled on its side or not above the floor"
+                       if got["height_m"] is None else
+                       f"the estimates spread over {got['spread_m']:.2f} m: the person does not stay "
+                       "upright" if got["spread_m"] > HEIGHT_SPREAD_M else
+                       f"{got['height_m']:.2f} m is not a person's height")
+                warnings.warn(f"--height-from-view: not used ({why}); the height is searched",
+                              IPFWarning, stacklevel=2)
         self.limits: Limits = load_limits(settings.limits)
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
@@ -217,6 +242,22 @@ class Tracker:
         chunk = settings.chunk or pick_chunk(self.filter.calls)  # padding vs calls: docs/benchmarks.md
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel, chunk=chunk)
         self.key = jax.random.PRNGKey(settings.seed)
+
+    def measure_height(self) -> dict:
+        """The standing height from the one camera's silhouettes on :data:`HEIGHT_FRAMES` frames
+        spread over the run (:func:`~ipf_jax.geometry.placement.height_from_view`); used when
+        the per-frame estimates agree within :data:`HEIGHT_SPREAD_M` (an upright person: a walker's
+        head bobs by a few cm, someone sitting down or bending moves it by decimetres)."""
+        n = len(self.frames)
+        picks = [self.frames[i] for i in np.unique(np.linspace(0, n - 1, min(HEIGHT_FRAMES, n)).astype(int))]
+        masks = [without_full(self.read_masks(f)[0]) for f in picks]
+        h, est = height_from_view(self.dataset.cameras[0], masks, self.U[:, 2])
+        good = est[np.isfinite(est)]
+        spread = float(np.percentile(good, 90) - np.percentile(good, 10)) if len(good) else float("nan")
+        used = bool(np.isfinite(h) and spread <= HEIGHT_SPREAD_M and 1.0 <= h <= 2.4)
+        return {"height_m": round(float(h), 3) if np.isfinite(h) else None, "used": used,
+                "frames": [int(f) for f in picks], "usable_frames": int(len(good)),
+                "spread_m": round(spread, 3) if np.isfinite(spread) else None}
 
     @property
     def filter(self) -> Filter:
@@ -677,7 +718,8 @@ class Tracker:
                          "scoring_sizes": [[c.width, c.height] for c in self.cameras]},
             "limits": limits_to_json(self.limits),
             "fps": self.fps, "up_axis": self.up_axis, "up_vector": self.U[:, 2].tolist(), "units": "m",
-            "height_m": shape.height_m, "shape": shape.to_json(), "shape_file": "shape.json",
+            "height_m": shape.height_m, "height_from_view": self.height_measured,
+            "shape": shape.to_json(), "shape_file": "shape.json",
             "shape_source": self.shape_doc(state)["source"], "shape_fit": state.shape_fit,
             "shape_fit_evaluations": (state.shape_fit or {}).get("evaluations", 0),
             "frames": {"first": self.frames[0], "last": self.frames[-1], "count": len(self.frames),
