@@ -218,13 +218,15 @@ class Tracker:
                 settings = settings._replace(height_m=got["height_m"])
                 self.settings = settings
             else:
-                why = (f"{got['usable_frames']} usable frames, {HEIGHT_MIN_FRAMES} needed"
-                       if got["usable_frames"] < HEIGHT_MIN_FRAMES else
-                       "the camera is rolled on its side or not above the floor"
-                       if got["height_m"] is None else
-                       f"the estimates spread over {got['spread_m']:.2f} m: the person does not stay "
-                       "upright" if got["spread_m"] > HEIGHT_SPREAD_M else
-                       f"{got['height_m']:.2f} m is not a person's height")
+                if got["usable_frames"] < HEIGHT_MIN_FRAMES:
+                    why = (f"{got['usable_frames']} of {len(got['frames'])} frames usable, "
+                           f"{HEIGHT_MIN_FRAMES} needed: the person whole in the image, seen by a "
+                           "camera above the floor, not rolled on its side, at most 45 deg down")
+                elif got["spread_m"] > HEIGHT_SPREAD_M:
+                    why = (f"the estimates spread over {got['spread_m']:.2f} m: the person does "
+                           "not stay upright")
+                else:
+                    why = f"{got['height_m']:.2f} m is not a person's height"
                 warnings.warn(f"--height-from-view: not used ({why}); the height is searched",
                               IPFWarning, stacklevel=2)
         self.limits: Limits = load_limits(settings.limits)
