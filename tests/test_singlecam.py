@@ -156,7 +156,7 @@ def test_one_camera_run_measures_the_height(standing_masks, tmp_path):
     assert Tracker(data, TrackSettings(up_axis="+z")).height_measured is None  # off by default
     tracker = Tracker(data, TrackSettings(up_axis="+z", height_from_view=True))
     got = tracker.height_measured
-    assert got["used"] and abs(got["height_m"] - SHAPE.height_m) < 0.02
+    assert got["not_used"] is None and abs(got["height_m"] - SHAPE.height_m) < 0.02
     assert tracker.settings.height_m == got["height_m"] and got["usable_frames"] == len(masks)
     assert Tracker(data, TrackSettings(up_axis="+z", height_m=1.8,
                                        height_from_view=True)).height_measured is None
@@ -169,7 +169,8 @@ def test_one_camera_run_measures_the_height(standing_masks, tmp_path):
     crouch = open_dataset(write_dataset(tmp_path / "crouch", [sharp_camera()], low[:, None]))
     with pytest.warns(IPFWarning, match="does not stay upright"):
         got = Tracker(crouch, TrackSettings(up_axis="+z", height_from_view=True)).height_measured
-    assert not got["used"] and got["spread_m"] > 0.15 and got["height_m"] is not None
+    assert "not stay upright" in got["not_used"] and got["spread_m"] > 0.15
+    assert got["height_m"] is not None
 
 
 def test_camera_at_height_keeps_orientation_and_intrinsics():

@@ -79,7 +79,7 @@ from .prefetch import Prefetch
 from .prior import level_pelvis, upright_to_camera
 from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
-from .shape_fit import Scene, calibrate_at_start, shape_doc
+from .shape_fit import Scene, calibrate_at_start, shape_doc, spread_frames
 from .state import HISTORY, FrameRecord, TrackState
 from .travel import travel_heading, window_frames
 
@@ -212,23 +212,12 @@ class Tracker:
         self.height_measured = None  # run.json: the one-camera height measurement, when made
         if (settings.height_m is None and settings.height_from_view and settings.shape_file is None
                 and settings.init_pose is None and len(dataset.cameras) == 1):
-            self.height_measured = self.measure_height()
-            got = self.height_measured
-            if got["used"]:
-                settings = settings._replace(height_m=got["height_m"])
-                self.settings = settings
+            self.height_measured = got = self.measure_height()
+            if got["not_used"] is None:
+                settings = self.settings = settings._replace(height_m=got["height_m"])
             else:
-                if got["usable_frames"] < HEIGHT_MIN_FRAMES:
-                    why = (f"{got['usable_frames']} of {len(got['frames'])} frames usable, "
-                           f"{HEIGHT_MIN_FRAMES} needed: the person whole in the image, seen by a "
-                           "camera above the floor, not rolled on its side, at most 45 deg down")
-                elif got["spread_m"] > HEIGHT_SPREAD_M:
-                    why = (f"the estimates spread over {got['spread_m']:.2f} m: the person does "
-                           "not stay upright")
-                else:
-                    why = f"{got['height_m']:.2f} m is not a person's height"
-                warnings.warn(f"--height-from-view: not used ({why}); the height is searched",
-                              IPFWarning, stacklevel=2)
+                warnings.warn(f"--height-from-view: not used ({got['not_used']}); the height is "
+                              "searched", IPFWarning, stacklevel=2)
         self.limits: Limits = load_limits(settings.limits)
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
@@ -249,17 +238,26 @@ class Tracker:
         """The standing height from the one camera's silhouettes on :data:`HEIGHT_FRAMES` frames
         spread over the run (:func:`~ipf_jax.geometry.placement.height_from_view`); used when
         the per-frame estimates agree within :data:`HEIGHT_SPREAD_M` (an upright person: a walker's
-        head bobs by a few cm, someone sitting down or bending moves it by decimetres)."""
-        n = len(self.frames)
-        picks = [self.frames[i] for i in np.unique(np.linspace(0, n - 1, min(HEIGHT_FRAMES, n)).astype(int))]
+        head bobs by a few cm, someone sitting down or bending moves it by decimetres). Its
+        ``not_used`` says why it is not used (None: it is)."""
+        picks = spread_frames(self.frames, HEIGHT_FRAMES)
         masks = [without_full(self.read_masks(f)[0]) for f in picks]
         h, est = height_from_view(self.dataset.cameras[0], masks, self.U[:, 2])
         good = est[np.isfinite(est)]
-        spread = float(np.percentile(good, 90) - np.percentile(good, 10)) if len(good) else float("nan")
-        used = bool(np.isfinite(h) and spread <= HEIGHT_SPREAD_M and 1.0 <= h <= 2.4)
-        return {"height_m": round(float(h), 3) if np.isfinite(h) else None, "used": used,
+        spread = float(np.percentile(good, 90) - np.percentile(good, 10)) if len(good) else None
+        if not np.isfinite(h):
+            why = (f"{len(good)} of {len(picks)} frames usable, {HEIGHT_MIN_FRAMES} needed: the "
+                   "person whole in the image, seen by a camera above the floor, not rolled on its "
+                   "side, at most 45 deg down")
+        elif spread > HEIGHT_SPREAD_M:
+            why = f"the estimates spread over {spread:.2f} m: the person does not stay upright"
+        elif not 1.0 <= h <= 2.4:
+            why = f"{h:.2f} m is not a person's height"
+        else:
+            why = None
+        return {"height_m": round(float(h), 3) if np.isfinite(h) else None, "not_used": why,
                 "frames": [int(f) for f in picks], "usable_frames": int(len(good)),
-                "spread_m": round(spread, 3) if np.isfinite(spread) else None}
+                "spread_m": None if spread is None else round(spread, 3)}
 
     @property
     def filter(self) -> Filter:
