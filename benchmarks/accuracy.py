@@ -44,11 +44,11 @@ import numpy as np
 
 from ipf_jax.analysis.evaluation import evaluate_files
 from ipf_jax.analysis.evaluation.metrics import (
+    evaluate,
     frame_errors,
     loss_summary,
     systematic_doc,
 )
-from ipf_jax.analysis.evaluation.metrics import evaluate
 from ipf_jax.analysis.export.smoothed import smooth_joints
 from ipf_jax.data.rundir import read_run
 from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv, write_rows
