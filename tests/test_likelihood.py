@@ -131,16 +131,20 @@ def test_windows_hold_every_capsule(scene):
     assert np.all((word0 <= win.win_words) & (win.win_words + n_win_words <= word0 + n_words))
     assert np.all(row0 + n_rows <= scorer.h_pad) and np.all(word0 + n_words <= scorer.w_words)
     assert np.all(n_win < n_rows)  # the windows are smaller than the model's box
-    # the row list: each capsule's entries are its window's rows down to its last, in order
+    # the row list: each capsule's entries are its own rows, in order, inside its window's R entries
     for c, rows in enumerate(win.rows):
         sz = scorer.sizes[c]
         assert len(rows.seg) == len(rows.row) == sz.list_rows
-        assert np.all(rows.first + sz.win_rows <= sz.list_rows) and np.all(rows.count <= sz.win_rows)
+        assert np.all(rows.first >= 0) and np.all(rows.first + sz.win_rows <= sz.list_rows)
+        assert np.all(rows.skip + rows.count <= sz.win_rows)
         for s in range(len(rows.first)):
-            k = slice(rows.first[s], rows.first[s] + rows.count[s])
+            k = slice(rows.first[s] + rows.skip[s], rows.first[s] + rows.skip[s] + rows.count[s])
             assert np.all(rows.seg[k] == s)
-            np.testing.assert_array_equal(rows.row[k], win.win_rows[c, s] + np.arange(rows.count[s]))
-            assert not seen[c, s] or win.win_rows[c, s] + rows.count[s] - 1 >= bottom[c, s]
+            np.testing.assert_array_equal(rows.row[k], win.win_rows[c, s] + rows.skip[s]
+                                          + np.arange(rows.count[s]))
+            if seen[c, s]:
+                assert win.win_rows[c, s] + rows.skip[s] == top[c, s]
+                assert win.win_rows[c, s] + rows.skip[s] + rows.count[s] - 1 == bottom[c, s]
 
 
 def test_no_retrace_across_frames(scene):

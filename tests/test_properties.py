@@ -283,6 +283,28 @@ def test_the_chunk_picked_for_a_filter_is_never_worse_than_the_default(calls, li
     assert c == limit or (c % 8 == 0 and chunk_cost(calls, c) <= 0.9 * chunk_cost(calls, limit))
 
 
+@PROPERTY
+@given(n_win=st.integers(1, 64), data=st.data())
+def test_the_row_list_holds_each_capsule_inside_its_window(n_win, data):
+    """Host-only: :func:`row_list` puts each capsule's own rows, in order, at rows ``skip ..`` of
+    a window of ``n_win`` entries that lies inside the list, in no more entries than windows slid
+    up over their capsules took before (every row from the window's first listed)."""
+    from ipf_jax.likelihood.scorer import list_need, row_list
+    n_seg = data.draw(st.integers(1, 17))
+    count = np.array(data.draw(st.lists(st.integers(0, n_win), min_size=n_seg, max_size=n_seg)))
+    skip = np.array([data.draw(st.integers(0, n_win - c)) if c else 0 for c in count])
+    win_rows = np.array(data.draw(st.lists(st.integers(0, 200), min_size=n_seg, max_size=n_seg)))
+    need = list_need(skip, count, n_win)
+    slid = skip + count
+    assert max(n_win, count.sum()) <= need <= slid.sum() - slid.max() + n_win
+    rows = row_list(win_rows, skip, count, n_win, need + data.draw(st.integers(0, 9)))
+    assert np.all(rows.first >= 0) and np.all(rows.first + n_win <= len(rows.seg))
+    for s in range(n_seg):
+        k = slice(rows.first[s] + skip[s], rows.first[s] + skip[s] + count[s])
+        assert np.all(rows.seg[k] == s)
+        np.testing.assert_array_equal(rows.row[k], win_rows[s] + skip[s] + np.arange(count[s]))
+
+
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), turn=st.floats(-np.pi, np.pi), n=st.integers(1, 70))
 def test_lean_angles_turn_with_the_scene_and_the_compiled_prior_matches(seed, turn, n):

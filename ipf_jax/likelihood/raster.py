@@ -286,16 +286,20 @@ def _window_rows(win_rows, n_win: int, xp=jnp):
 class RowList(NamedTuple):
     """The rows stage 1 solves, as one list shared by the B particles (host or device int32).
 
-    seg, row : (T,) the capsule and the image row of each entry; capsule ``s``'s entries are
-    ``first[s] .. first[s] + count[s] - 1``, the rows ``win_rows[s] ..`` of its window in order
-    (``count[s] <= R``, 0 for a capsule seen nowhere), and ``first[s] + R <= T``. Unlike windows of
-    R rows for every capsule, the list holds each capsule's own rows: 1.5-1.8x fewer on the bench
-    scene, where the capsule seen over the tallest spread sets R.
+    seg, row : (T,) the capsule and the image row of each entry. Capsule ``s``'s window of R rows
+    starts at entry ``first[s]``; its own entries are the window's rows ``skip[s] .. skip[s] +
+    count[s] - 1`` (entries ``first[s] + skip[s] ..``, the capsule's rows in order; ``count[s]``
+    0 for a capsule seen nowhere), the window's other rows read entries of other capsules and are
+    masked. ``first[s] >= 0``, ``first[s] + R <= T`` and ``skip[s] + count[s] <= R``. Unlike
+    windows of R rows for every capsule, the list holds each capsule's own rows only: 1.5-1.8x
+    fewer on the bench scene, where the capsule seen over the tallest spread sets R, and no rows
+    above a capsule whose window was slid up to stay inside the union grid.
     """
 
     seg: jnp.ndarray
     row: jnp.ndarray
     first: jnp.ndarray
+    skip: jnp.ndarray
     count: jnp.ndarray
 
 
@@ -305,7 +309,7 @@ def window_list(win_rows, n_win: int, xp=jnp) -> RowList:
     seg = xp.repeat(xp.arange(n_seg, dtype=xp.int32), n_win)
     first = xp.arange(n_seg, dtype=xp.int32) * n_win
     return RowList(seg, _window_rows(win_rows, n_win, xp).reshape(-1), first,
-                   xp.full((n_seg,), n_win, xp.int32))
+                   xp.zeros((n_seg,), xp.int32), xp.full((n_seg,), n_win, xp.int32))
 
 
 def list_intervals(rc: RowCoeffs, rows: RowList, q: int, height, width):
@@ -418,8 +422,8 @@ def batch_words(packed, rows: RowList, sil_words, roi: Roi, win_rows, win_words,
 
     def add(s, grid):  # one in-place update per capsule
         window = jax.lax.dynamic_slice_in_dim(packed, rows.first[s], n_win)  # (R, B)
-        bits = window_bits(jnp.where(held < rows.count[s], window, EMPTY), win_words[s],
-                           n_win_words)
+        own = (held >= rows.skip[s]) & (held < rows.skip[s] + rows.count[s])
+        bits = window_bits(jnp.where(own, window, EMPTY), win_words[s], n_win_words)
         pos = (win_words[s] - roi.word0, win_rows[s] - roi.row0, 0)
         old = jax.lax.dynamic_slice(grid, pos, bits.shape)
         return jax.lax.dynamic_update_slice(grid, old | bits, pos)

@@ -250,29 +250,45 @@ class Windows(NamedTuple):
     rows: tuple
 
 
-def row_list(win_rows: np.ndarray, count: np.ndarray, n_win: int, n_list: int) -> RowList:
-    """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of the first ``count[s]`` rows of each
-    capsule's window (S,), padded to ``n_list`` entries with copies of the last one. The capsule
-    with the most rows goes last, so each capsule's R entries from its first lie in the list with
-    ``list_need(count, n_win) <= n_list`` entries."""
-    order = np.argsort(count, kind="stable")
+def _list_layout(skip: np.ndarray, count: np.ndarray, n_win: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Where each capsule's entries go in the row list: (order of the capsules, ``own`` (S,) the
+    entry of each capsule's first row, ``pad`` entries in front, entries needed). A window of R
+    rows reads R entries from ``own - skip``, so it can run past the capsule's own entries by its
+    rows below them (``R - skip - count``): the capsules go in decreasing order of that (the list
+    then ends as early as it can: Jackson's rule), and entries are padded in front when a window
+    would start before the list."""
+    tail = n_win - skip - count
+    order = np.argsort(-tail, kind="stable")
     counts = count[order]
-    first = np.zeros(len(count), np.int64)
-    first[order] = np.cumsum(counts) - counts
+    own_sorted = np.cumsum(counts) - counts
+    pad = max(0, int(np.max(skip[order] - own_sorted)))
+    own = np.empty(len(count), np.int64)
+    own[order] = own_sorted + pad
+    need = max(pad + int(count.sum()), int(np.max(own - skip)) + n_win)
+    return order, own, pad, need
+
+
+def row_list(win_rows: np.ndarray, skip: np.ndarray, count: np.ndarray, n_win: int,
+             n_list: int) -> RowList:
+    """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of each capsule's ``count[s]`` rows
+    from row ``skip[s]`` of its window (S,), ordered and padded by :func:`_list_layout` to
+    ``n_list`` entries (copies of the first and last), ``list_need(skip, count, n_win) <= n_list``."""
+    order, own, pad, _ = _list_layout(skip, count, n_win)
+    counts = count[order]
     seg = np.repeat(order, counts)
-    row = np.repeat(win_rows[order], counts) + np.arange(len(seg)) - np.repeat(first[order], counts)
+    row = (np.repeat((win_rows + skip)[order], counts) + np.arange(len(seg))
+           - np.repeat(own[order] - pad, counts))
     if len(seg) == 0:
         seg, row = np.zeros(1, np.int64), win_rows[:1]
-    pad = n_list - len(seg)
-    seg = np.concatenate([seg, np.repeat(seg[-1:], pad)])
-    row = np.concatenate([row, np.repeat(row[-1:], pad)])
-    return RowList(seg.astype(np.int32), row.astype(np.int32), first.astype(np.int32),
-                   count.astype(np.int32))
+    seg = np.concatenate([np.repeat(seg[:1], pad), seg, np.repeat(seg[-1:], n_list - pad - len(seg))])
+    row = np.concatenate([np.repeat(row[:1], pad), row, np.repeat(row[-1:], n_list - pad - len(row))])
+    return RowList(seg.astype(np.int32), row.astype(np.int32), (own - skip).astype(np.int32),
+                   skip.astype(np.int32), count.astype(np.int32))
 
 
-def list_need(count: np.ndarray, n_win: int) -> int:
-    """Entries :func:`row_list` needs: every row counted, then R from the last capsule's first."""
-    return int(count.sum() - count.max() + n_win)
+def list_need(skip: np.ndarray, count: np.ndarray, n_win: int) -> int:
+    """Entries :func:`row_list` needs for these capsules and windows of ``n_win`` rows."""
+    return _list_layout(skip, count, n_win)[3]
 
 
 def _round_up(n: int, step: int, cap: int) -> int:
@@ -418,7 +434,8 @@ class Scorer:
             n_list = n_seg * self.h_pad
             self.sizes = [Sizes(self.h_pad, self.w_words, self.h_pad, self.w_words, n_list)] * n_cam
             zero = np.zeros(n_cam, np.int32)
-            whole = row_list(np.zeros(n_seg, np.int64), np.full(n_seg, self.h_pad), self.h_pad, n_list)
+            zeros = np.zeros(n_seg, np.int64)
+            whole = row_list(zeros, zeros, np.full(n_seg, self.h_pad), self.h_pad, n_list)
             return Windows(zero, zero, np.zeros((n_cam, n_seg), np.int32),
                            np.zeros((n_cam, n_seg), np.int32), (whole,) * n_cam)
         h, w = self.heights[:, None], self.widths[:, None]
@@ -446,14 +463,15 @@ class Scorer:
         # a window starts at its capsule, slid back inside the grid (it still holds the capsule)
         win_rows = np.clip(np.where(seen, r_lo, row0), row0, row0 + n_rows - n_win)
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
-        count = np.where(seen, r_hi - win_rows + 1, 0)  # the window's rows down to the capsule's last
+        skip = np.where(seen, r_lo - win_rows, 0)  # window rows above the capsule (a slid window)
+        count = np.where(seen, r_hi - r_lo + 1, 0)  # the capsule's own rows: the list holds these
         for c, sz in enumerate(sizes):
-            need[c, 4] = list_need(count[c], sz.win_rows)
+            need[c, 4] = list_need(skip[c], count[c], sz.win_rows)
             sizes[c] = sz._replace(list_rows=_bucket(sz.list_rows, int(need[c, 4]), 8,
                                                      self._list_cap))
         self._need = need if self._need is None else np.maximum(self._need, need)
         self.sizes = sizes
-        rows = tuple(row_list(win_rows[c], count[c], sz.win_rows, sz.list_rows)
+        rows = tuple(row_list(win_rows[c], skip[c], count[c], sz.win_rows, sz.list_rows)
                      for c, sz in enumerate(sizes))
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
                        win_rows.astype(np.int32), win_words.astype(np.int32), rows)
