@@ -158,8 +158,12 @@ def test_one_camera_run_measures_the_height(standing_masks, tmp_path):
     got = tracker.height_measured
     assert got["not_used"] is None and abs(got["height_m"] - SHAPE.height_m) < 0.02
     assert tracker.settings.height_m == got["height_m"] and got["usable_frames"] == len(masks)
-    assert Tracker(data, TrackSettings(up_axis="+z", height_m=1.8,
-                                       height_from_view=True)).height_measured is None
+    with pytest.warns(IPFWarning, match="not measured .a height is given"):
+        assert Tracker(data, TrackSettings(up_axis="+z", height_m=1.8,
+                                           height_from_view=True)).height_measured is None
+    two = open_dataset(write_dataset(tmp_path / "two", [sharp_camera()] * 2, np.stack([masks] * 2, 1)))
+    with pytest.warns(IPFWarning, match="with one camera, not 2"):
+        assert Tracker(two, TrackSettings(up_axis="+z", height_from_view=True)).height_measured is None
     # someone who does not stay upright (every other frame only the legs: a person crouching
     # behind something) is searched instead
     low = masks.copy()

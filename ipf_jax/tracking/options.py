@@ -201,7 +201,8 @@ OPTIONS: tuple[Option, ...] = (
            "and no height given (--height, dataset.json), use the standing height measured from the "
            "silhouettes' lowest and highest points over the floor on 15 frames, when the person stays "
            "upright (default off: the height is searched at initialisation; the camera's height "
-           "above the floor must be right; docs/single_camera.md)"),
+           "above the floor must be right; otherwise a warning says why it is not measured; "
+           "docs/single_camera.md)"),
     Option("lean_prior_deg", "--lean-prior", "float", 10.0, "with ONE camera, a prior that the "
            "person stands upright along its line of sight, which one view cannot see: every weight "
            "times exp(-(trunk^2 + legs^2) / 2 sigma^2) of the trunk's and the legs' lean towards or "

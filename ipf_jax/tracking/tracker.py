@@ -210,14 +210,21 @@ class Tracker:
         self.up_axis = up
         self.U = up_rotation(up)
         self.height_measured = None  # run.json: the one-camera height measurement, when made
-        if (settings.height_m is None and settings.height_from_view and settings.shape_file is None
-                and settings.init_pose is None and len(dataset.cameras) == 1):
-            self.height_measured = got = self.measure_height()
-            if got["not_used"] is None:
-                settings = self.settings = settings._replace(height_m=got["height_m"])
+        if settings.height_from_view:
+            skip = ("a height is given" if settings.height_m is not None
+                    else "a shape file is given" if settings.shape_file is not None
+                    else "an initial pose is given" if settings.init_pose is not None
+                    else f"it measures with one camera, not {len(dataset.cameras)}"
+                    if len(dataset.cameras) != 1 else None)
+            if skip is not None:
+                warnings.warn(f"--height-from-view: not measured ({skip})", IPFWarning, stacklevel=2)
             else:
-                warnings.warn(f"--height-from-view: not used ({got['not_used']}); the height is "
-                              "searched", IPFWarning, stacklevel=2)
+                self.height_measured = got = self.measure_height()
+                if got["not_used"] is None:
+                    settings = self.settings = settings._replace(height_m=got["height_m"])
+                else:
+                    warnings.warn(f"--height-from-view: not used ({got['not_used']}); the height is "
+                                  "searched", IPFWarning, stacklevel=2)
         self.limits: Limits = load_limits(settings.limits)
         self.base_shape: BodyShape = (default_shape() if settings.shape_file is None
                                       else load_shape(settings.shape_file))
