@@ -17,19 +17,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+from ipf_jax.paths import shared_data_dir
+
 BANDS = np.round(np.arange(-0.4, 2.41, 0.2), 1)
-
-
-def shared_data() -> Path:
-    env = os.environ.get("IPF_JAX_DATA")
-    return (Path(env) if env else (REPO.parent / "shared" / "data").resolve()) / "mocap_walk_render"
 
 
 def residuals(run: Path, every: int) -> dict:
@@ -42,7 +37,7 @@ def residuals(run: Path, every: int) -> dict:
 
     meta = json.loads((run / "run.json").read_text())
     name = run.name.split("@")[0]
-    data = shared_data() / name
+    data = shared_data_dir() / "mocap_walk_render" / name
     ds = open_dataset(data)
     shape = load_shape(run / "shape.json")
     up = up_rotation(meta["up_axis"])
