@@ -16,6 +16,7 @@ from pathlib import Path
 
 import jax
 
+from . import lowered
 from .paths import cache_dir
 
 _DONE = False
@@ -37,6 +38,7 @@ def configure() -> None:
     except OSError:
         return  # an unwritable cache only costs compile time
     jax.config.update("jax_compilation_cache_dir", str(path))
+    lowered.enable(cache_dir() / "lowered")  # and the lowerings, which that cache does not keep
     # the raster stages compile in 0.1-0.2 s per window size and load from the cache in about
     # 0.01-0.03 s: kept from 0.05 s on, a run meets a new size at a load, not a compile
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_CACHED_COMPILE_S)

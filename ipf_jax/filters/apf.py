@@ -27,6 +27,7 @@ import numpy as np
 from ..body.limits import Limits
 from ..body.model import NUM_DOF
 from ..errors import require
+from ..lowered import Program
 from .base import (
     Filter,
     FilterState,
@@ -34,6 +35,7 @@ from .base import (
     init_state,
     rate_std,
     resample_diffuse,
+    _resample_draws,
     resample_draws,
     summarise,
 )
@@ -131,11 +133,11 @@ def annealed_weights(likelihood: np.ndarray, target: float) -> tuple[np.ndarray,
     return np.exp(beta * (lw - lw[np.isfinite(lw)].max())), beta
 
 
-@functools.partial(jax.jit, static_argnames=("layers", "shape"))
+@functools.partial(Program, static_argnames=("layers", "shape"))
 def layer_draws(rng_key: jax.Array, layers: int, shape: tuple[int, int]) -> tuple:
     """Every layer's resampling draws, ``resample_draws(fold_in(rng_key, layer), shape)``, in one
     compiled call (dispatched ahead of the frame by the tracker: see ``Filter.draws``)."""
-    return tuple(resample_draws(jax.random.fold_in(rng_key, layer), shape) for layer in range(layers))
+    return tuple(_resample_draws(jax.random.fold_in(rng_key, layer), shape) for layer in range(layers))
 
 
 def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:

@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..body.limits import Limits
+from ..lowered import Program
 
 Measure = Callable[[np.ndarray], np.ndarray]
 
@@ -68,7 +69,7 @@ def gaussian_noise(rng_key: jax.Array, shape: tuple[int, ...], std: np.ndarray) 
     return np.asarray(standard_normal(rng_key, tuple(shape)), np.float64) * std
 
 
-@functools.partial(jax.jit, static_argnames="shape")
+@functools.partial(Program, static_argnames=("shape",))
 def standard_normal(rng_key: jax.Array, shape: tuple[int, ...]) -> jax.Array:
     """``jax.random.normal(rng_key, shape, float32)`` as one compiled call per shape: bit for bit
     the same numbers as the eager call, without its per-call dispatch of the key checks and the
@@ -152,11 +153,14 @@ def resample_diffuse(rng_key: jax.Array | None, particles: np.ndarray, weights: 
     return limits.clip(out, copy=False)
 
 
-@functools.partial(jax.jit, static_argnames="shape")
-def resample_draws(rng_key: jax.Array, shape: tuple[int, int]) -> tuple[jax.Array, jax.Array]:
+def _resample_draws(rng_key: jax.Array, shape: tuple[int, int]) -> tuple[jax.Array, jax.Array]:
     """:func:`resample_diffuse`'s draws in one compiled call: the systematic offset
     ``uniform(k1, ())`` and ``normal(k2, shape)`` of ``k1, k2 = split(rng_key)``, bit for bit the
     numbers of the separate eager calls (:func:`~ipf_jax.filters.selection.systematic` and
     :func:`gaussian_noise` with those keys)."""
     k1, k2 = jax.random.split(rng_key)
     return jax.random.uniform(k1, ()), jax.random.normal(k2, shape, dtype=jnp.float32)
+
+
+#: :func:`_resample_draws` as one compiled program per shape (its lowering kept on disk)
+resample_draws = Program(_resample_draws, ("shape",))

@@ -36,6 +36,7 @@ import numpy as np
 from ..body.limits import Limits
 from ..body.model import DOF_INDEX, DOF_NAMES, NUM_DOF
 from ..errors import require
+from ..lowered import Program
 from .base import (
     Filter,
     FilterState,
@@ -172,7 +173,7 @@ def _stages(settings: FIPFSettings, fps: float) -> list[_Stage]:
     return out
 
 
-@functools.partial(jax.jit, static_argnames=("n_keys", "shapes"))
+@functools.partial(Program, static_argnames=("n_keys", "shapes"))
 def _split_and_draw(rng_key: jax.Array, n_keys: int, shapes: tuple) -> tuple:
     """A frame's keys and draws in one compiled call: ``keys = jax.random.split(rng_key, n_keys)``
     and ``jax.random.normal(keys[i], shape)`` for each ``(i, shape)`` of ``shapes``, bit for bit

@@ -52,12 +52,14 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ..body.shape import BodyShape
 from ..errors import IPFError, require
-from ..geometry.camera import Z_NEAR, Camera, broadcast_cameras, project_xyz, stack_cameras
+from ..lowered import Program, register_namedtuple
+from ..geometry.camera import Z_NEAR, Camera, CameraArrays, broadcast_cameras, project_xyz, stack_cameras
 from ..geometry.capsule2d import outline_fields
 from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from .raster import (
     WORD,
     Roi,
+    RowCoeffs,
     RowList,
     batch_words,
     dense_interval_stage,
@@ -215,7 +217,12 @@ COMPILER_OPTIONS = {"xla_cpu_prefer_vector_width": "512"}
 
 
 def _compiled(fn, *static):
-    return jax.jit(fn, static_argnames=static, compiler_options=COMPILER_OPTIONS)
+    """A stage's program; its lowering is kept on disk once the cache is on (:mod:`ipf_jax.lowered`)."""
+    return Program(fn, static, COMPILER_OPTIONS)
+
+
+for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple arguments and results
+    register_namedtuple(_t)
 
 
 _geometry_jit = _compiled(_geometry_impl, "long_side", "scan_q")

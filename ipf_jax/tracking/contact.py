@@ -28,11 +28,12 @@ import numpy as np
 from ..body.limits import Limits
 from ..body.shape import BodyShape
 from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends, particles_as_rows
+from ..lowered import Program
 
 DEFAULT_RANGE = (-0.03, 0.10)  # metres: 3 cm into soft ground/shoes, 10 cm of flight
 
 
-@jax.jit
+@Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
 def _lowest_jit(q_t, shape_values, up):
     """(D, B) particles as rows -> (B,) lowest capsule surface point over the floor, float32: the
     scorer's particle-last forward kinematics of the distinct capsule ends, then each segment's

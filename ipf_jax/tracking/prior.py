@@ -38,6 +38,7 @@ import numpy as np
 
 from ..body.model import DOF_INDEX
 from ..geometry.kinematics import frame_axes, particles_as_rows, place
+from ..lowered import Program
 
 ROLL = DOF_INDEX["root_roll"]
 
@@ -119,7 +120,7 @@ def upright_reference(particles: np.ndarray, shape_values: np.ndarray, up: np.nd
     return np.exp(-0.5 * level * (trunk ** 2 + legs ** 2) / np.deg2rad(sigma_deg) ** 2)
 
 
-@jax.jit
+@Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
 def _upright_jit(q_t, shape_values, up, centre, inv_sigma):
     """q_t (D, B) particles as rows; shape_values (P,) or (P, B). Returns the exponent: the host
     takes its exp in float64 (float32 would underflow to 0 for a small sigma)."""

@@ -68,6 +68,7 @@ from ..likelihood.scorer import (
     scoring_cameras,
     weights_from_counts,
 )
+from ..lowered import Program
 from . import loss
 from . import state as track_state
 from .contact import FloorContact
@@ -172,7 +173,7 @@ def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
                        "cameras in another order, or wrong --up)", cam.source or where)
 
 
-@jax.jit
+@Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
 def frame_key(key: jax.Array, frame: int, salt: int) -> jax.Array:
     """The key of stage ``salt`` of ``frame``: ``fold_in(fold_in(key, frame), salt)``, in one
     compiled call (the eager pair dispatched ~40 primitives, 1-2 ms a frame under a profiler)."""

@@ -1,0 +1,161 @@
+"""Compiled programs whose lowering is kept on disk: a new process loads a program it has met
+before instead of tracing and lowering it again.
+
+JAX's persistent compilation cache (:mod:`ipf_jax.jax_setup`) keeps compiled executables across
+processes, but every process still traces and lowers each program it meets before it can look the
+executable up. For the raster stages that is 0.03-0.1 s per program, and a tracker meets a new one
+whenever a window size changes (a few times in a 40-frame run: docs/benchmarks.md). A
+:class:`Program` saves each lowering it makes as a serialised :mod:`jax.export` module and, in a
+later process, reads it back (about 3 ms) and lowers only a call of it (about 15-20 ms); the
+executable then comes from the persistent cache as before. The results are the same program's.
+
+The files live in ``$IPF_JAX_CACHE/lowered`` (default ``~/.cache/ipf-jax/lowered``), one per
+program and argument signature, named by a hash of the package's source files, the JAX version,
+the backend, the static arguments and the arguments' shapes and dtypes: any edit of the package
+makes new files, and a stale file is never read. They are small (about 10 kB); deleting the folder
+is always safe. The cache is on once :func:`enable` has been called (``ipf-jax`` does it with the
+compilation cache, off with ``IPF_JAX_NO_CACHE``) and only on one device (an exported module fixes
+its device count; with several devices the programs are plain :func:`jax.jit`). A module that
+cannot be exported or read falls back to :func:`jax.jit` for that signature.
+
+Arguments that are named tuples must be registered for serialisation
+(:func:`jax.export.register_namedtuple_serialization`); :func:`register_namedtuple` does it once.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import inspect
+import os
+from pathlib import Path
+
+import jax
+from jax import export
+
+_DIR: Path | None = None
+_SOURCE: str | None = None
+_ON_ONE_DEVICE: bool | None = None
+_REGISTERED: set = set()
+
+
+def enable(path: Path) -> None:
+    """Keep lowered programs in ``path`` (created when the first one is written)."""
+    global _DIR
+    _DIR = Path(path)
+
+
+def disable() -> None:
+    global _DIR
+    _DIR = None
+
+
+def register_namedtuple(cls) -> None:
+    """Let arguments and results of type ``cls`` (a NamedTuple) be serialised (once per type)."""
+    register = getattr(export, "register_namedtuple_serialization", None)  # JAX >= 0.4.32
+    if cls not in _REGISTERED and register is not None:
+        register(cls, serialized_name=f"ipf_jax.{cls.__qualname__}")
+        _REGISTERED.add(cls)
+
+
+def _source_hash() -> str:
+    """A hash of every Python file of the package (read once per process)."""
+    global _SOURCE
+    if _SOURCE is None:
+        root = Path(__file__).resolve().parent
+        h = hashlib.sha256()
+        for f in sorted(root.rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+        _SOURCE = h.hexdigest()
+    return _SOURCE
+
+
+def _active() -> bool:
+    global _ON_ONE_DEVICE
+    if _DIR is None:
+        return False
+    if _ON_ONE_DEVICE is None:
+        _ON_ONE_DEVICE = jax.local_device_count() == 1
+    return _ON_ONE_DEVICE
+
+
+class Program:
+    """``jax.jit(fn, static_argnames=static, compiler_options=options)`` whose lowerings are kept
+    on disk (module doc). Called like that jit: array arguments (pytrees of arrays) by position,
+    then the static ones (``fn``'s last parameters) by position or keyword.
+
+    It is itself a jit (dispatch at the speed of JAX's own cache) of a function that runs only
+    when that jit traces a new signature: it reads the signature's exported module, or exports
+    and writes it, and calls it, so the trace is a call of an already lowered module."""
+
+    def __init__(self, fn, static_argnames: tuple[str, ...] = (), compiler_options: dict | None = None):
+        self.fn = fn
+        self.static_argnames = tuple(static_argnames)
+        self.compiler_options = dict(compiler_options or {})
+        opts = self.compiler_options or None
+        self._jit = jax.jit(fn, static_argnames=self.static_argnames, compiler_options=opts)
+        def traced(*args, **static):  # a function of its own: a jit cache per program
+            return self._traced(*args, **static)
+
+        functools.update_wrapper(traced, fn)
+        self._via_disk = jax.jit(traced, static_argnames=self.static_argnames,
+                                 compiler_options=opts)
+        self._params = list(inspect.signature(fn).parameters)
+        self._first_static = min([self._params.index(n) for n in self.static_argnames] or [len(self._params)])
+        if not set(self._params[self._first_static:]) <= set(self.static_argnames):
+            raise ValueError(f"{fn.__name__}: static arguments must come last")
+        self.exports = 0  # modules exported (and written) by this process
+        self.loads = 0  # modules read from disk by this process
+
+    def __call__(self, *args, **static):
+        if len(args) > self._first_static:  # static arguments given by position: by name
+            params = self._params
+            for i in range(len(args) - 1, self._first_static - 1, -1):
+                if params[i] in self.static_argnames:
+                    static[params[i]] = args[i]
+                    args = args[:i] + args[i + 1:]
+        return (self._via_disk if _active() else self._jit)(*args, **static)
+
+    def lower(self, *args, **static):
+        return self._jit.lower(*args, **static)
+
+    def _cache_size(self) -> int:
+        """Signatures traced in this process (for tests that count retraces)."""
+        return self._jit._cache_size() + self._via_disk._cache_size()
+
+    def _traced(self, *args, **static):
+        specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), args)
+        exp = self._exported(specs, static)
+        return self.fn(*args, **static) if exp is None else exp.call(*args)
+
+    def _file(self, specs, static) -> Path:
+        leaves, tree = jax.tree.flatten(specs)
+        key = repr((self.fn.__module__, self.fn.__qualname__, _source_hash(), jax.__version__,
+                    jax.default_backend(), str(tree), [(x.shape, str(x.dtype)) for x in leaves],
+                    sorted(static.items()), sorted(self.compiler_options.items())))
+        return _DIR / f"{self.fn.__name__}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.jaxexport"
+
+    def _exported(self, specs, static):
+        """One signature's exported module: read from its file, or exported now and written;
+        None when it cannot be exported (the caller traces ``fn`` itself)."""
+        path = self._file(specs, static)
+        try:
+            exp = export.deserialize(bytearray(path.read_bytes()))
+            self.loads += 1
+            return exp
+        except Exception:  # noqa: BLE001 - missing, corrupt or foreign: export it (again)
+            pass
+        try:
+            exp = export.export(jax.jit(functools.partial(self.fn, **static)))(*specs)
+            blob = exp.serialize()
+        except Exception:  # noqa: BLE001 - not exportable: traced as a plain jit
+            return None
+        self.exports += 1
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_bytes(blob)
+            os.replace(tmp, path)
+        except OSError:
+            pass  # an unwritable cache only costs the lowering next time
+        return exp

@@ -1,0 +1,109 @@
+"""Programs whose lowering is kept on disk (ipf_jax.lowered): same results as a plain jit, written
+once, read back by a new program object (as a new process would), never a stale or corrupt file."""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from ipf_jax import lowered
+
+
+class Pair(NamedTuple):
+    a: jnp.ndarray
+    b: jnp.ndarray
+
+
+lowered.register_namedtuple(Pair)
+
+
+def _kernel(p, scale, n):
+    """A small stand-in for a raster stage: a pytree argument, a traced scalar, a static size."""
+    x = jnp.cumsum(p.a[:n] * scale, axis=0)
+    return Pair(x, p.b.sum(0)), jnp.int32(n)
+
+
+@pytest.fixture
+def cache(tmp_path):
+    before = lowered._DIR
+    lowered.enable(tmp_path)
+    yield tmp_path
+    lowered._DIR = before
+
+
+def _args(rows=6):
+    rng = np.random.default_rng(0)
+    return Pair(rng.normal(size=(rows, 3)).astype(np.float32),
+                rng.integers(0, 9, size=(rows, 2)).astype(np.int32)), np.float32(1.5)
+
+
+def _same(x, y):
+    for u, v in zip(jax.tree.leaves(x), jax.tree.leaves(y)):
+        np.testing.assert_array_equal(np.asarray(u), np.asarray(v))
+    assert jax.tree.structure(x) == jax.tree.structure(y)
+
+
+def test_results_equal_a_plain_jit_and_a_new_program_reads_the_file(cache):
+    want = jax.jit(_kernel, static_argnames="n")(*_args(), n=4)
+    first = lowered.Program(_kernel, ("n",))
+    _same(first(*_args(), n=4), want)
+    assert (first.exports, first.loads) == (1, 0)
+    assert len(list(cache.glob("*.jaxexport"))) == 1
+    second = lowered.Program(_kernel, ("n",))  # a new process meets the same signature
+    _same(second(*_args(), n=4), want)
+    assert (second.exports, second.loads) == (0, 1)
+    second(*_args(), n=5)  # a new static size is a new module
+    second(*_args(rows=7), n=4)  # and so is a new shape
+    assert second.exports == 2 and len(list(cache.glob("*.jaxexport"))) == 3
+    size = second._cache_size()
+    second(*_args(), n=4)  # the jit's own cache dispatches a signature met before
+    assert second._cache_size() == size and second.loads + second.exports == 3
+
+
+def test_a_corrupt_file_is_exported_again(cache):
+    lowered.Program(_kernel, ("n",))(*_args(), n=4)
+    (path,) = cache.glob("*.jaxexport")
+    path.write_bytes(b"not a module")
+    again = lowered.Program(_kernel, ("n",))
+    _same(again(*_args(), n=4), jax.jit(_kernel, static_argnames="n")(*_args(), n=4))
+    assert again.exports == 1 and path.read_bytes() != b"not a module"
+
+
+def test_off_without_a_folder_and_for_what_cannot_be_exported(cache):
+    lowered.disable()
+    plain = lowered.Program(_kernel, ("n",))
+    plain(*_args(), n=4)
+    assert plain.exports == 0 and not list(cache.glob("*"))
+    lowered.enable(cache)
+
+    def host(x):  # a host callback has no stable serialisation: traced as a plain jit instead
+        return jax.pure_callback(lambda v: np.asarray(v) * 2, jax.ShapeDtypeStruct(x.shape, x.dtype), x)
+
+    prog = lowered.Program(host)
+    np.testing.assert_array_equal(np.asarray(prog(np.arange(3, dtype=np.float32))), [0, 2, 4])
+    assert prog.exports == 0 and not list(cache.glob("*.jaxexport"))
+
+
+def test_the_scorer_counts_the_same_through_the_cache(cache):
+    """The raster stages through exported modules count exactly what the plain programs count."""
+    from ipf_jax.body import default_shape
+    from ipf_jax.geometry.world import up_rotation
+    from ipf_jax.likelihood import scorer as S
+    from ipf_jax.viz import synthetic as syn
+
+    cams = syn.ring_cameras(2, width=96, height=72, focal_px=90)
+    shape = default_shape(1.75)
+    q = syn.procedural_walk(3, shape=shape)
+    masks = syn.render_masks(q, shape, cams)
+    particles = q[1] + np.random.default_rng(2).normal(0, 0.02, (24, q.shape[1]))
+    obs = S.make_observation(list(masks[1]))
+    up = up_rotation("+z")
+    met = S._intervals_jit.exports + S._intervals_jit.loads
+    via_disk = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)
+    assert S._intervals_jit.exports + S._intervals_jit.loads > met
+    lowered.disable()
+    plain = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)
+    np.testing.assert_array_equal(via_disk, plain)
