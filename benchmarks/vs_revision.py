@@ -16,9 +16,10 @@ started from bodytrack's ``InitialPose.txt`` (no automatic initialisation). The 
 tree compiles (persistent cache) and is not counted. Prints, per repeat and as the median, each
 tree's seconds per frame and the ratio REV / working tree (> 1: the working tree is faster), for
 the whole run's mean per tracked frame and for its median frame. The two differ by the one-off
-costs: a frame that meets a new window size traces, lowers and loads a program (0.1-0.3 s a size
-with this tree on a 2-core machine), a few times in a 40-frame run and rarely once a run has seen
-its sizes, so the mean is a short clip's speed and the median a long recording's.
+costs: a frame that meets a new window size traces (or, with ``ipf_jax.lowered``, reads), lowers
+and loads a program (0.1-0.3 s a size before that module, 0.02-0.03 s with it, on a 2-core
+machine), a few times in a 40-frame run and rarely once a run has seen its sizes, so the mean is a
+short clip's speed and the median a long recording's.
 
 ``--data SET`` tracks a data set's first ``--frames`` frames as a user would (automatic
 initialisation and, with today's defaults, the shape fit; ``--cameras`` is then the set's), e.g. a
