@@ -9,14 +9,16 @@ whenever a window size changes (a few times in a 40-frame run: docs/benchmarks.m
 later process, reads it back (about 3 ms) and lowers only a call of it (about 15-20 ms); the
 executable then comes from the persistent cache as before. The results are the same program's.
 
-The files live in ``$IPF_JAX_CACHE/lowered`` (default ``~/.cache/ipf-jax/lowered``), one per
-program and argument signature, named by a hash of the package's source files, the JAX version,
-the backend, the static arguments and the arguments' shapes and dtypes: any edit of the package
-makes new files, and a stale file is never read. They are small (about 10 kB); deleting the folder
-is always safe. The cache is on once :func:`enable` has been called (``ipf-jax`` does it with the
-compilation cache, off with ``IPF_JAX_NO_CACHE``) and only on one device (an exported module fixes
-its device count; with several devices the programs are plain :func:`jax.jit`). A module that
-cannot be exported or read falls back to :func:`jax.jit` for that signature.
+The files live in ``$IPF_JAX_CACHE/lowered/<source>`` (default ``~/.cache/ipf-jax/lowered``), one
+folder per version of the package's source files and one file per program and argument signature,
+named by a hash of the JAX version, the backend, the static arguments and the arguments' shapes and
+dtypes: any edit of the package makes a new folder, and a stale file is never read. Files are small
+(about 12 kB); folders of other versions untouched for :data:`PRUNE_DAYS` days are deleted, and
+deleting the whole folder is always safe. The cache is on once :func:`enable` has been called
+(``ipf-jax`` does it with the compilation cache, off with ``IPF_JAX_NO_CACHE``) and only on one
+device (an exported module fixes its device count; with several devices the programs are plain
+:func:`jax.jit`). A module that cannot be exported or read falls back to :func:`jax.jit` for that
+signature.
 
 Arguments that are named tuples must be registered for serialisation
 (:func:`jax.export.register_namedtuple_serialization`); :func:`register_namedtuple` does it once.
@@ -27,6 +29,8 @@ import functools
 import hashlib
 import inspect
 import os
+import shutil
+import time
 from pathlib import Path
 
 import jax
@@ -36,6 +40,9 @@ _DIR: Path | None = None
 _SOURCE: str | None = None
 _ON_ONE_DEVICE: bool | None = None
 _REGISTERED: set = set()
+_PRUNED = False
+#: Folders of other source versions (one per version) untouched this long are deleted.
+PRUNE_DAYS = 30
 
 
 def enable(path: Path) -> None:
@@ -68,6 +75,19 @@ def _source_hash() -> str:
             h.update(f.read_bytes())
         _SOURCE = h.hexdigest()
     return _SOURCE
+
+
+def _prune_once(keep: Path) -> None:
+    """Delete the folders of other source versions untouched for :data:`PRUNE_DAYS` (once per
+    process, before its first write)."""
+    global _PRUNED
+    if _PRUNED:
+        return
+    _PRUNED = True
+    old = time.time() - PRUNE_DAYS * 86400
+    for d in keep.parent.glob("*"):
+        if d.is_dir() and d != keep and d.stat().st_mtime < old:
+            shutil.rmtree(d, ignore_errors=True)
 
 
 def _active() -> bool:
@@ -133,7 +153,8 @@ class Program:
         key = repr((self.fn.__module__, self.fn.__qualname__, _source_hash(), jax.__version__,
                     jax.default_backend(), str(tree), [(x.shape, str(x.dtype)) for x in leaves],
                     sorted(static.items()), sorted(self.compiler_options.items())))
-        return _DIR / f"{self.fn.__name__}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.jaxexport"
+        name = f"{self.fn.__name__}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.jaxexport"
+        return _DIR / _source_hash()[:16] / name
 
     def _exported(self, specs, static):
         """One signature's exported module: read from its file, or exported now and written;
@@ -152,6 +173,7 @@ class Program:
             return None
         self.exports += 1
         try:
+            _prune_once(path.parent)
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_suffix(f".{os.getpid()}.tmp")
             tmp.write_bytes(blob)

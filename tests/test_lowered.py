@@ -51,13 +51,13 @@ def test_results_equal_a_plain_jit_and_a_new_program_reads_the_file(cache):
     first = lowered.Program(_kernel, ("n",))
     _same(first(*_args(), n=4), want)
     assert (first.exports, first.loads) == (1, 0)
-    assert len(list(cache.glob("*.jaxexport"))) == 1
+    assert len(list(cache.rglob("*.jaxexport"))) == 1
     second = lowered.Program(_kernel, ("n",))  # a new process meets the same signature
     _same(second(*_args(), n=4), want)
     assert (second.exports, second.loads) == (0, 1)
     second(*_args(), n=5)  # a new static size is a new module
     second(*_args(rows=7), n=4)  # and so is a new shape
-    assert second.exports == 2 and len(list(cache.glob("*.jaxexport"))) == 3
+    assert second.exports == 2 and len(list(cache.rglob("*.jaxexport"))) == 3
     size = second._cache_size()
     second(*_args(), n=4)  # the jit's own cache dispatches a signature met before
     assert second._cache_size() == size and second.loads + second.exports == 3
@@ -65,18 +65,33 @@ def test_results_equal_a_plain_jit_and_a_new_program_reads_the_file(cache):
 
 def test_a_corrupt_file_is_exported_again(cache):
     lowered.Program(_kernel, ("n",))(*_args(), n=4)
-    (path,) = cache.glob("*.jaxexport")
+    (path,) = cache.rglob("*.jaxexport")
     path.write_bytes(b"not a module")
     again = lowered.Program(_kernel, ("n",))
     _same(again(*_args(), n=4), jax.jit(_kernel, static_argnames="n")(*_args(), n=4))
     assert again.exports == 1 and path.read_bytes() != b"not a module"
 
 
+def test_old_versions_folders_are_pruned_before_the_first_write(cache, monkeypatch):
+    import os
+    import time
+
+    old, recent = cache / "0", cache / "1"
+    for d in (old, recent):
+        (d / "x").mkdir(parents=True)
+    past = time.time() - (lowered.PRUNE_DAYS + 1) * 86400
+    os.utime(old, (past, past))
+    monkeypatch.setattr(lowered, "_PRUNED", False)
+    lowered.Program(_kernel, ("n",))(*_args(), n=3)
+    assert not old.exists() and recent.exists()
+    assert len(list(cache.rglob("*.jaxexport"))) == 1
+
+
 def test_off_without_a_folder_and_for_what_cannot_be_exported(cache):
     lowered.disable()
     plain = lowered.Program(_kernel, ("n",))
     plain(*_args(), n=4)
-    assert plain.exports == 0 and not list(cache.glob("*"))
+    assert plain.exports == 0 and not list(cache.rglob("*"))
     lowered.enable(cache)
 
     def host(x):  # a host callback has no stable serialisation: traced as a plain jit instead
@@ -84,7 +99,7 @@ def test_off_without_a_folder_and_for_what_cannot_be_exported(cache):
 
     prog = lowered.Program(host)
     np.testing.assert_array_equal(np.asarray(prog(np.arange(3, dtype=np.float32))), [0, 2, 4])
-    assert prog.exports == 0 and not list(cache.glob("*.jaxexport"))
+    assert prog.exports == 0 and not list(cache.rglob("*.jaxexport"))
 
 
 def test_the_scorer_counts_the_same_through_the_cache(cache):
