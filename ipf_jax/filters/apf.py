@@ -31,12 +31,11 @@ from ..lowered import Program
 from .base import (
     Filter,
     FilterState,
+    _resample_draws,
     default_noise_rates,
     init_state,
     rate_std,
     resample_diffuse,
-    _resample_draws,
-    resample_draws,
     summarise,
 )
 

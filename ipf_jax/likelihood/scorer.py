@@ -52,10 +52,17 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ..body.shape import BodyShape
 from ..errors import IPFError, require
-from ..lowered import Program, register_namedtuple
-from ..geometry.camera import Z_NEAR, Camera, CameraArrays, broadcast_cameras, project_xyz, stack_cameras
+from ..geometry.camera import (
+    Z_NEAR,
+    Camera,
+    CameraArrays,
+    broadcast_cameras,
+    project_xyz,
+    stack_cameras,
+)
 from ..geometry.capsule2d import outline_fields
 from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
+from ..lowered import Program, register_namedtuple
 from .raster import (
     WORD,
     Roi,

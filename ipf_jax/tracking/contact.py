@@ -21,13 +21,17 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..body.limits import Limits
 from ..body.shape import BodyShape
-from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends, particles_as_rows
+from ..geometry.kinematics import (
+    SEGMENT_ENDS,
+    SEGMENT_RADII,
+    capsule_ends,
+    particles_as_rows,
+)
 from ..lowered import Program
 
 DEFAULT_RANGE = (-0.03, 0.10)  # metres: 3 cm into soft ground/shoes, 10 cm of flight

@@ -32,7 +32,6 @@ an IPF frame and 5 % of a factored-IPF frame (``benchmarks/frame_profile.py``, s
 """
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 

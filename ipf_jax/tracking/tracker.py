@@ -73,8 +73,8 @@ from . import loss
 from . import state as track_state
 from .contact import FloorContact
 from .initialise import InitSettings, floor_points, initialise
-from .options import settings_doc
 from .loss import Coverage, coverage
+from .options import settings_doc
 from .origin import FrameAnchor, observe_anchor, root_shift
 from .prefetch import Prefetch
 from .prior import level_pelvis, upright_to_camera
