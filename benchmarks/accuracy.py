@@ -14,7 +14,10 @@ tracker declared ``lost`` (nan rows) are not scored in those; ``mpjpe_guess_mm``
 the joints low-passed as ``ipf-jax track --smooth`` writes them (``joints_smoothed.csv``: the gait
 analysis' 5 Hz zero-lag Butterworth, docs/export.md), what a gait lab would filter the trajectories
 to; the other columns score the raw per-frame estimates of ``joints.csv``. Finished sets
-are skipped on a rerun (delete ``DIR/runs/SET`` to redo one). Writes ``DIR/accuracy.json`` (every
+are skipped on a rerun when the same ``ipf_jax`` sources (a hash of their files) and track options
+made them (``DIR/runs/SET/accuracy_stamp.json``); a finished run made otherwise stops the script
+with an error naming it, so another version's run is never scored as this one's (delete
+``DIR/runs/SET`` to redo one). Writes ``DIR/accuracy.json`` (every
 number, per joint too) and ``DIR/accuracy.md`` (the table).
 
 ``--seeds 0,1,2`` tracks every set once per seed (``--seed K``; runs in ``DIR/runs/SET@seedK``
@@ -33,6 +36,7 @@ visible render has three cameras).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import subprocess
@@ -100,12 +104,34 @@ def three_camera_set(name: str, root: Path, out: Path) -> Path:
     return derived
 
 
+STAMP = "accuracy_stamp.json"
+
+
+def source_hash(tree: str | None) -> str:
+    """A hash of the ``ipf_jax`` sources a run uses (``tree``'s, or the one this script imports)."""
+    import ipf_jax
+    pkg = Path(tree) / "ipf_jax" if tree else Path(ipf_jax.__file__).parent
+    h = hashlib.sha256()
+    for f in sorted(pkg.rglob("*.py")):
+        h.update(str(f.relative_to(pkg)).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
 def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None,
-            run_name: str | None = None) -> dict:
+            run_name: str | None = None, source: str = "") -> dict:
+    """Track one set (unless a finished run of the same sources and options is there) and score it."""
     run_dir = out / "runs" / (run_name or name)
     done = run_dir / "run.json"
-    if not (done.is_file() and (run_dir / "joints.csv").is_file() and json.loads(done.read_text())
-            .get("frames", {}).get("done") == json.loads(done.read_text()).get("frames", {}).get("count")):
+    stamp = {"source": source, "track_args": track_args}
+    finished = (done.is_file() and (run_dir / "joints.csv").is_file() and json.loads(done.read_text())
+                .get("frames", {}).get("done") == json.loads(done.read_text()).get("frames", {}).get("count"))
+    if finished:
+        had = json.loads((run_dir / STAMP).read_text()) if (run_dir / STAMP).is_file() else None
+        if had != stamp:  # a finished run of other sources or options is never scored as this one's
+            sys.exit(f"error: {run_dir} holds a finished run of other ipf_jax sources or track options "
+                     f"({'none recorded' if had is None else had}); delete it or use another --out")
+    else:
         env = dict(os.environ)
         if tree:
             env["PYTHONPATH"] = tree + os.pathsep + env.get("PYTHONPATH", "")
@@ -116,6 +142,7 @@ def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str |
         if proc.returncode != 0:
             return {"set": name, "error": (proc.stderr.strip().splitlines() or ["?"])[-1],
                     "wall_s": round(time.perf_counter() - t0, 1)}
+        (run_dir / STAMP).write_text(json.dumps(stamp))
     run = json.loads(done.read_text())
     declared = [r for r in run["per_frame"] if r["status"] == "lost"]
     if declared:  # scored with the best guesses too, so dropping frames cannot flatter the table
@@ -243,11 +270,12 @@ def main(argv=None) -> int:
     root = shared_data_dir() / "mocap_walk_render"
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    source = source_hash(args.python_path)
     rows = []
     for seed, name in ((k, n) for k in seeds for n in set_names(args.sets, root)):
         src = three_camera_set(name, root, out) if name.endswith("_3cam") else root
         row = run_set(name, src, out, [*args.track_args, "--seed", str(seed)], args.python_path,
-                      name if len(seeds) == 1 else f"{name}@seed{seed}")
+                      name if len(seeds) == 1 else f"{name}@seed{seed}", source)
         row["seed"] = seed
         rows.append(row)
         print(f"seed={seed} " * (len(seeds) > 1) + " ".join(f"{c}={row[c]:.1f}" if isinstance(row.get(c), float) else f"{c}={row.get(c)}"
