@@ -11,8 +11,9 @@ executable then comes from the persistent cache as before. The results are the s
 
 The files live in ``$IPF_JAX_CACHE/lowered/<source>`` (default ``~/.cache/ipf-jax/lowered``), one
 folder per version of the package's source files and one file per program and argument signature,
-named by a hash of the JAX version, the backend, the static arguments and the arguments' shapes and
-dtypes: any edit of the package makes a new folder, and a stale file is never read. Files are small
+named by a hash of the JAX version and settings (x64, the PRNG, debug checks, ...), the backend, the
+static arguments and the arguments' shapes and dtypes: any edit of the package makes a new folder,
+and a stale file is never read. Files are small
 (about 12 kB); folders of other versions untouched for :data:`PRUNE_DAYS` days are deleted, and
 deleting the whole folder is always safe. The cache is on once :func:`enable` has been called
 (``ipf-jax`` does it with the compilation cache, off with ``IPF_JAX_NO_CACHE``) and only on one
@@ -75,6 +76,17 @@ def _source_hash() -> str:
             h.update(f.read_bytes())
         _SOURCE = h.hexdigest()
     return _SOURCE
+
+
+#: JAX settings that cannot change a program's lowering (caches, logging, time-outs)
+_NOT_LOWERING = ("cache", "log", "timeout", "dump", "explain", "distributed")
+
+
+def _config() -> list:
+    """The JAX settings in force that may change a lowering (x64, the PRNG's implementation and
+    partitioning, debug checks, dtype promotion, ...): a file made under other settings is not read."""
+    return sorted((k, repr(v)) for k, v in jax.config.values.items()
+                  if not any(w in k for w in _NOT_LOWERING))
 
 
 def _prune_once(keep: Path) -> None:
@@ -150,7 +162,7 @@ class Program:
 
     def _file(self, specs, static) -> Path:
         leaves, tree = jax.tree.flatten(specs)
-        key = repr((self.fn.__module__, self.fn.__qualname__, _source_hash(), jax.__version__,
+        key = repr((self.fn.__module__, self.fn.__qualname__, jax.__version__, _config(),
                     jax.default_backend(), str(tree), [(x.shape, str(x.dtype)) for x in leaves],
                     sorted(static.items()), sorted(self.compiler_options.items())))
         name = f"{self.fn.__name__}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.jaxexport"

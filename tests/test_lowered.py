@@ -63,6 +63,22 @@ def test_results_equal_a_plain_jit_and_a_new_program_reads_the_file(cache):
     assert second._cache_size() == size and second.loads + second.exports == 3
 
 
+def test_other_jax_settings_are_other_files(cache):
+    """A program lowered under other JAX settings (here the PRNG's partitioning) is not read."""
+    want_on = jax.jit(lambda k: jax.random.normal(k, (4,)))(jax.random.PRNGKey(3))
+    draw = lowered.Program(lambda k: jax.random.normal(k, (4,)))
+    np.testing.assert_array_equal(np.asarray(draw(jax.random.PRNGKey(3))), np.asarray(want_on))
+    flag = jax.config.jax_threefry_partitionable
+    try:
+        jax.config.update("jax_threefry_partitionable", not flag)
+        want_off = jax.jit(lambda k: jax.random.normal(k, (4,)))(jax.random.PRNGKey(3))
+        again = lowered.Program(draw.fn)
+        np.testing.assert_array_equal(np.asarray(again(jax.random.PRNGKey(3))), np.asarray(want_off))
+        assert again.exports == 1 and len(list(cache.rglob("*.jaxexport"))) == 2
+    finally:
+        jax.config.update("jax_threefry_partitionable", flag)
+
+
 def test_a_corrupt_file_is_exported_again(cache):
     lowered.Program(_kernel, ("n",))(*_args(), n=4)
     (path,) = cache.rglob("*.jaxexport")
