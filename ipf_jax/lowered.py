@@ -176,7 +176,7 @@ class Program:
             exp = export.deserialize(bytearray(path.read_bytes()))
             self.loads += 1
             return exp
-        except Exception:  # noqa: BLE001 - missing, corrupt or foreign: export it (again)
+        except Exception:  # noqa: BLE001, S110 - missing, corrupt or foreign: export it (again)
             pass
         try:
             exp = export.export(jax.jit(functools.partial(self.fn, **static)))(*specs)
