@@ -31,6 +31,7 @@ import hashlib
 import inspect
 import os
 import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -38,12 +39,15 @@ import jax
 from jax import export
 
 _DIR: Path | None = None
-_SOURCE: str | None = None
 _ON_ONE_DEVICE: bool | None = None
 _REGISTERED: set = set()
 _PRUNED = False
+_WRITES = True  # False once a write has failed: an unwritable cache is not tried again
 #: Folders of other source versions (one per version) untouched this long are deleted.
 PRUNE_DAYS = 30
+#: Static arguments of these types (and tuples of them) have a stable, faithful ``repr``; other
+#: static values are traced as a plain jit (no file).
+_PLAIN_STATIC = (int, float, bool, str, type(None))
 
 
 def enable(path: Path) -> None:
@@ -61,21 +65,40 @@ def register_namedtuple(cls) -> None:
     """Let arguments and results of type ``cls`` (a NamedTuple) be serialised (once per type)."""
     register = getattr(export, "register_namedtuple_serialization", None)  # JAX >= 0.4.32
     if cls not in _REGISTERED and register is not None:
-        register(cls, serialized_name=f"ipf_jax.{cls.__qualname__}")
+        register(cls, serialized_name=f"{cls.__module__}.{cls.__qualname__}")
         _REGISTERED.add(cls)
 
 
-def _source_hash() -> str:
-    """A hash of every Python file of the package (read once per process)."""
-    global _SOURCE
-    if _SOURCE is None:
-        root = Path(__file__).resolve().parent
-        h = hashlib.sha256()
-        for f in sorted(root.rglob("*.py")):
-            h.update(str(f.relative_to(root)).encode())
-            h.update(f.read_bytes())
-        _SOURCE = h.hexdigest()
-    return _SOURCE
+def _hash_files(files) -> str:
+    h = hashlib.sha256()
+    for f in sorted(files):
+        h.update(str(f).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def _package_hash() -> str:
+    """A hash of every Python file of the package as it is on disk now."""
+    root = Path(__file__).resolve().parent
+    return _hash_files(f for f in root.rglob("*.py"))
+
+
+def _package_stamp() -> tuple:
+    """The package's Python files and their modification times (cheaper than their hash)."""
+    root = Path(__file__).resolve().parent
+    return tuple(sorted((str(f), f.stat().st_mtime_ns) for f in root.rglob("*.py")))
+
+
+#: The package's source as this process imported it: a file is named by it, and a file is written
+#: only while the files on disk are still those (an edit during a run writes nothing).
+_SOURCE = _package_hash()
+_STAMP = _package_stamp()
+
+
+@functools.lru_cache(maxsize=None)
+def _module_hash(module_file: str) -> str:
+    """A hash of the file defining a program (for programs outside the package: tests, scripts)."""
+    return _hash_files([Path(module_file)])
 
 
 #: JAX settings that cannot change a program's lowering (caches, logging, time-outs)
@@ -89,16 +112,24 @@ def _config() -> list:
                   if not any(w in k for w in _NOT_LOWERING))
 
 
+def _plain(value) -> bool:
+    if isinstance(value, tuple):
+        return all(_plain(v) for v in value)
+    return isinstance(value, _PLAIN_STATIC)
+
+
 def _prune_once(keep: Path) -> None:
-    """Delete the folders of other source versions untouched for :data:`PRUNE_DAYS` (once per
-    process, before its first write)."""
+    """Delete the folders of other source versions (named by 16 hex digits, holding only programs)
+    untouched for :data:`PRUNE_DAYS` (once per process, before its first write; a read touches its
+    folder)."""
     global _PRUNED
     if _PRUNED:
         return
     _PRUNED = True
     old = time.time() - PRUNE_DAYS * 86400
     for d in keep.parent.glob("*"):
-        if d.is_dir() and d != keep and d.stat().st_mtime < old:
+        if (d != keep and d.is_dir() and len(d.name) == 16 and all(c in "0123456789abcdef" for c in d.name)
+                and d.stat().st_mtime < old and all(f.suffix in (".jaxexport", ".tmp") for f in d.iterdir())):
             shutil.rmtree(d, ignore_errors=True)
 
 
@@ -118,7 +149,13 @@ class Program:
 
     It is itself a jit (dispatch at the speed of JAX's own cache) of a function that runs only
     when that jit traces a new signature: it reads the signature's exported module, or exports
-    and writes it, and calls it, so the trace is a call of an already lowered module."""
+    and writes it, and calls it, so the trace is a call of an already lowered module.
+
+    Only module-level functions without closures use the disk (a file is named by the function's
+    module, name and source file, not by the values a closure holds); others, signatures with a
+    weak-typed argument (a Python scalar: its exported type would not be weak), and static
+    values other than numbers, strings, None and tuples of them are traced as the plain jit.
+    Under :func:`jax.vmap` use the plain jit (``call_exported`` has no batching rule)."""
 
     def __init__(self, fn, static_argnames: tuple[str, ...] = (), compiler_options: dict | None = None):
         self.fn = fn
@@ -126,6 +163,7 @@ class Program:
         self.compiler_options = dict(compiler_options or {})
         opts = self.compiler_options or None
         self._jit = jax.jit(fn, static_argnames=self.static_argnames, compiler_options=opts)
+
         def traced(*args, **static):  # a function of its own: a jit cache per program
             return self._traced(*args, **static)
 
@@ -135,8 +173,13 @@ class Program:
         self._params = list(inspect.signature(fn).parameters)
         self._first_static = min([self._params.index(n) for n in self.static_argnames] or [len(self._params)])
         if not set(self._params[self._first_static:]) <= set(self.static_argnames):
-            raise ValueError(f"{fn.__name__}: static arguments must come last")
-        self.exports = 0  # modules exported (and written) by this process
+            raise ValueError(f"{getattr(fn, '__name__', fn)}: static arguments must come last")
+        qualname = getattr(fn, "__qualname__", "<")
+        source = inspect.getsourcefile(fn) if inspect.isfunction(fn) else None
+        self._disk = (inspect.isfunction(fn) and fn.__closure__ is None and "<" not in qualname
+                      and source is not None)
+        self._source_file = source
+        self.exports = 0  # modules exported by this process
         self.loads = 0  # modules read from disk by this process
 
     def __call__(self, *args, **static):
@@ -144,9 +187,11 @@ class Program:
             params = self._params
             for i in range(len(args) - 1, self._first_static - 1, -1):
                 if params[i] in self.static_argnames:
+                    if params[i] in static:
+                        raise TypeError(f"{self.fn.__name__}() got multiple values for {params[i]!r}")
                     static[params[i]] = args[i]
                     args = args[:i] + args[i + 1:]
-        return (self._via_disk if _active() else self._jit)(*args, **static)
+        return (self._via_disk if self._disk and _active() else self._jit)(*args, **static)
 
     def lower(self, *args, **static):
         return self._jit.lower(*args, **static)
@@ -156,40 +201,60 @@ class Program:
         return self._jit._cache_size() + self._via_disk._cache_size()
 
     def _traced(self, *args, **static):
-        specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), args)
-        exp = self._exported(specs, static)
+        leaves = jax.tree.leaves(args)
+        exp = None
+        if _plain(tuple(static.values())) and not any(getattr(getattr(x, "aval", None), "weak_type", False)
+                                                      for x in leaves):
+            specs = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), args)
+            exp = self._exported(specs, static)
         return self.fn(*args, **static) if exp is None else exp.call(*args)
 
     def _file(self, specs, static) -> Path:
         leaves, tree = jax.tree.flatten(specs)
-        key = repr((self.fn.__module__, self.fn.__qualname__, jax.__version__, _config(),
-                    jax.default_backend(), str(tree), [(x.shape, str(x.dtype)) for x in leaves],
-                    sorted(static.items()), sorted(self.compiler_options.items())))
+        key = repr((self.fn.__module__, self.fn.__qualname__, _module_hash(self._source_file),
+                    jax.__version__, _config(), jax.default_backend(), str(tree),
+                    [(x.shape, str(x.dtype)) for x in leaves], sorted(static.items()),
+                    sorted(self.compiler_options.items())))
         name = f"{self.fn.__name__}-{hashlib.sha256(key.encode()).hexdigest()[:24]}.jaxexport"
-        return _DIR / _source_hash()[:16] / name
+        return _DIR / _SOURCE[:16] / name
 
     def _exported(self, specs, static):
-        """One signature's exported module: read from its file, or exported now and written;
+        """One signature's exported module: read from its file, or exported now (and written);
         None when it cannot be exported (the caller traces ``fn`` itself)."""
         path = self._file(specs, static)
         try:
             exp = export.deserialize(bytearray(path.read_bytes()))
             self.loads += 1
+            os.utime(path.parent)  # in use: not pruned
             return exp
         except Exception:  # noqa: BLE001, S110 - missing, corrupt or foreign: export it (again)
             pass
         try:
             exp = export.export(jax.jit(functools.partial(self.fn, **static)))(*specs)
-            blob = exp.serialize()
         except Exception:  # noqa: BLE001 - not exportable: traced as a plain jit
             return None
         self.exports += 1
-        try:
-            _prune_once(path.parent)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_bytes(blob)
-            os.replace(tmp, path)
-        except OSError:
-            pass  # an unwritable cache only costs the lowering next time
+        _write(path, exp)
         return exp
+
+
+def _write(path: Path, exp) -> None:
+    """Save a module, unless the package's source changed since import, a write failed before,
+    or it cannot be serialised (then it is only used in this process)."""
+    global _WRITES
+    if not _WRITES or _package_stamp() != _STAMP:
+        return
+    try:
+        blob = exp.serialize()
+    except Exception:  # noqa: BLE001 - e.g. flatbuffers missing: kept in memory only
+        _WRITES = False
+        return
+    try:
+        _prune_once(path.parent)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as f:
+            f.write(blob)
+        os.replace(tmp, path)
+    except OSError:
+        _WRITES = False  # an unwritable cache only costs the lowering next time

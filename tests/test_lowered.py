@@ -63,16 +63,21 @@ def test_results_equal_a_plain_jit_and_a_new_program_reads_the_file(cache):
     assert second._cache_size() == size and second.loads + second.exports == 3
 
 
+def _normal(k):
+    return jax.random.normal(k, (4,))
+
+
 def test_other_jax_settings_are_other_files(cache):
     """A program lowered under other JAX settings (here the PRNG's partitioning) is not read."""
-    want_on = jax.jit(lambda k: jax.random.normal(k, (4,)))(jax.random.PRNGKey(3))
-    draw = lowered.Program(lambda k: jax.random.normal(k, (4,)))
+    want_on = jax.jit(_normal)(jax.random.PRNGKey(3))
+    draw = lowered.Program(_normal)
     np.testing.assert_array_equal(np.asarray(draw(jax.random.PRNGKey(3))), np.asarray(want_on))
+    assert draw.exports == 1
     flag = jax.config.jax_threefry_partitionable
     try:
         jax.config.update("jax_threefry_partitionable", not flag)
         want_off = jax.jit(lambda k: jax.random.normal(k, (4,)))(jax.random.PRNGKey(3))
-        again = lowered.Program(draw.fn)
+        again = lowered.Program(_normal)
         np.testing.assert_array_equal(np.asarray(again(jax.random.PRNGKey(3))), np.asarray(want_off))
         assert again.exports == 1 and len(list(cache.rglob("*.jaxexport"))) == 2
     finally:
@@ -92,15 +97,38 @@ def test_old_versions_folders_are_pruned_before_the_first_write(cache, monkeypat
     import os
     import time
 
-    old, recent = cache / "0", cache / "1"
-    for d in (old, recent):
-        (d / "x").mkdir(parents=True)
+    old, recent, other = cache / ("0" * 16), cache / ("1" * 16), cache / "notes"
+    for d in (old, recent, other):
+        d.mkdir()
+        (d / "a.jaxexport").write_bytes(b"")
     past = time.time() - (lowered.PRUNE_DAYS + 1) * 86400
-    os.utime(old, (past, past))
+    for d in (old, other):
+        os.utime(d, (past, past))
     monkeypatch.setattr(lowered, "_PRUNED", False)
     lowered.Program(_kernel, ("n",))(*_args(), n=3)
-    assert not old.exists() and recent.exists()
-    assert len(list(cache.rglob("*.jaxexport"))) == 1
+    assert not old.exists() and recent.exists() and other.exists()  # only old versions' folders
+    assert len(list((cache / lowered._SOURCE[:16]).glob("*.jaxexport"))) == 1
+
+
+def _closure(scale):
+    def f(x):
+        return x * scale
+    return f
+
+
+def test_closures_lambdas_and_python_scalars_are_plain_jits(cache):
+    """No file for what its name cannot tell apart: closures' values, lambdas, weak types."""
+    two, three = lowered.Program(_closure(2.0)), lowered.Program(_closure(3.0))
+    x = np.ones(3, np.float32)
+    np.testing.assert_array_equal(np.asarray(two(x)), 2 * x)
+    np.testing.assert_array_equal(np.asarray(three(x)), 3 * x)
+    plus = lowered.Program(lambda v: v + 1)
+    np.testing.assert_array_equal(np.asarray(plus(x)), x + 1)
+    scalar = lowered.Program(_kernel, ("n",))
+    out, _ = scalar(_args()[0], 1.5, n=4)  # a Python float: weak-typed, traced as the plain jit
+    assert out.a.dtype == np.float32
+    assert two.exports + three.exports + plus.exports + scalar.exports == 0
+    assert not list(cache.rglob("*.jaxexport"))
 
 
 def test_off_without_a_folder_and_for_what_cannot_be_exported(cache):
@@ -132,9 +160,19 @@ def test_the_scorer_counts_the_same_through_the_cache(cache):
     particles = q[1] + np.random.default_rng(2).normal(0, 0.02, (24, q.shape[1]))
     obs = S.make_observation(list(masks[1]))
     up = up_rotation("+z")
-    met = S._intervals_jit.exports + S._intervals_jit.loads
+    stages = (S._geometry_jit, S._intervals_jit, S._words_jit, S._dense_jit)
+    jax.clear_caches()  # whatever ran before: this process traces the stages again
+    exported = [p.exports for p in stages]
     via_disk = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)
-    assert S._intervals_jit.exports + S._intervals_jit.loads > met
+    dense = S.Scorer(cams, shape, up, chunk=16, kernel="dense").counts(particles, obs)
+    assert all(p.exports > e for p, e in zip(stages, exported))
+    jax.clear_caches()  # as a new process would: the files are read, nothing is exported
+    exported, loaded = [p.exports for p in stages], [p.loads for p in stages]
+    again = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)
+    again_dense = S.Scorer(cams, shape, up, chunk=16, kernel="dense").counts(particles, obs)
+    assert [p.exports for p in stages] == exported
+    assert all(p.loads > n for p, n in zip(stages, loaded))
     lowered.disable()
     plain = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)
-    np.testing.assert_array_equal(via_disk, plain)
+    for got in (via_disk, dense, again, again_dense):
+        np.testing.assert_array_equal(got, plain)
