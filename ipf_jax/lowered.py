@@ -95,7 +95,7 @@ _SOURCE = _package_hash()
 _STAMP = _package_stamp()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _module_hash(module_file: str) -> str:
     """A hash of the file defining a program (for programs outside the package: tests, scripts)."""
     return _hash_files([Path(module_file)])
