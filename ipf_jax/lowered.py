@@ -69,10 +69,11 @@ def register_namedtuple(cls) -> None:
         _REGISTERED.add(cls)
 
 
-def _hash_files(files) -> str:
+def _hash_files(root: Path, files) -> str:
+    """A hash of files' contents and their paths relative to ``root`` (not where the checkout is)."""
     h = hashlib.sha256()
     for f in sorted(files):
-        h.update(str(f).encode())
+        h.update(str(f.relative_to(root)).encode())
         h.update(f.read_bytes())
     return h.hexdigest()
 
@@ -80,7 +81,7 @@ def _hash_files(files) -> str:
 def _package_hash() -> str:
     """A hash of every Python file of the package as it is on disk now."""
     root = Path(__file__).resolve().parent
-    return _hash_files(f for f in root.rglob("*.py"))
+    return _hash_files(root, root.rglob("*.py"))
 
 
 def _package_stamp() -> tuple:
@@ -98,7 +99,8 @@ _STAMP = _package_stamp()
 @functools.cache
 def _module_hash(module_file: str) -> str:
     """A hash of the file defining a program (for programs outside the package: tests, scripts)."""
-    return _hash_files([Path(module_file)])
+    path = Path(module_file)
+    return _hash_files(path.parent, [path])
 
 
 #: JAX settings that cannot change a program's lowering (caches, logging, time-outs)

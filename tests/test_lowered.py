@@ -2,6 +2,11 @@
 once, read back by a new program object (as a new process would), never a stale or corrupt file."""
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 from typing import NamedTuple
 
 import jax
@@ -94,7 +99,6 @@ def test_a_corrupt_file_is_exported_again(cache):
 
 
 def test_old_versions_folders_are_pruned_before_the_first_write(cache, monkeypatch):
-    import os
     import time
 
     old, recent, other = cache / ("0" * 16), cache / ("1" * 16), cache / "notes"
@@ -108,6 +112,17 @@ def test_old_versions_folders_are_pruned_before_the_first_write(cache, monkeypat
     lowered.Program(_kernel, ("n",))(*_args(), n=3)
     assert not old.exists() and recent.exists() and other.exists()  # only old versions' folders
     assert len(list((cache / lowered._SOURCE[:16]).glob("*.jaxexport"))) == 1
+
+
+def test_the_source_version_does_not_depend_on_where_the_checkout_is(tmp_path):
+    """Another checkout of the same sources reads the same files (a hash of relative paths)."""
+    pkg = Path(lowered.__file__).parent
+    copy = tmp_path / "elsewhere"
+    shutil.copytree(pkg, copy / "ipf_jax", ignore=shutil.ignore_patterns("__pycache__"))
+    code = "import ipf_jax.lowered as m; print(m._SOURCE)"
+    out = subprocess.run([sys.executable, "-c", code], cwd=copy, capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": str(copy)}, check=True)
+    assert out.stdout.strip() == lowered._SOURCE
 
 
 def _closure(scale):
