@@ -79,9 +79,11 @@ def _hash_files(root: Path, files) -> str:
 
 
 def _package_hash() -> str:
-    """A hash of every Python file of the package as it is on disk now."""
+    """A hash of every Python file of the package as it is on disk now ("" for an install without
+    its sources: then nothing is kept on disk, as no version could be told from another)."""
     root = Path(__file__).resolve().parent
-    return _hash_files(root, root.rglob("*.py"))
+    files = list(root.rglob("*.py"))
+    return _hash_files(root, files) if files else ""
 
 
 def _package_stamp() -> tuple:
@@ -137,7 +139,7 @@ def _prune_once(keep: Path) -> None:
 
 def _active() -> bool:
     global _ON_ONE_DEVICE
-    if _DIR is None:
+    if _DIR is None or not _SOURCE:
         return False
     if _ON_ONE_DEVICE is None:
         _ON_ONE_DEVICE = jax.local_device_count() == 1
