@@ -189,10 +189,11 @@ class Program:
     def __call__(self, *args, **static):
         if len(args) > self._first_static:  # static arguments given by position: by name
             params = self._params
-            for i in range(len(args) - 1, self._first_static - 1, -1):
+            for i in range(min(len(args), len(params)) - 1, self._first_static - 1, -1):
                 if params[i] in self.static_argnames:
                     if params[i] in static:
-                        raise TypeError(f"{self.fn.__name__}() got multiple values for {params[i]!r}")
+                        name = getattr(self.fn, "__name__", "program")
+                        raise TypeError(f"{name}() got multiple values for argument {params[i]!r}")
                     static[params[i]] = args[i]
                     args = args[:i] + args[i + 1:]
         return (self._via_disk if self._disk and _active() else self._jit)(*args, **static)
