@@ -6,16 +6,17 @@ processes, but every process still traces and lowers each program it meets befor
 executable up. For the raster stages that is 0.03-0.1 s per program, and a tracker meets a new one
 whenever a window size changes (a few times in a 40-frame run: docs/benchmarks.md). A
 :class:`Program` saves each lowering it makes as a serialised :mod:`jax.export` module and, in a
-later process, reads it back (about 3 ms) and lowers only a call of it (about 15-20 ms); the
-executable then comes from the persistent cache as before. The results are the same program's.
+later process, reads it back (about 3 ms) and lowers only a call of it (8-16 ms); the executable
+then comes from the persistent cache as before. The results are the same program's, bit for bit.
 
 The files live in ``$IPF_JAX_CACHE/lowered/<source>`` (default ``~/.cache/ipf-jax/lowered``), one
-folder per version of the package's source files and one file per program and argument signature,
-named by a hash of the JAX version and settings (x64, the PRNG, debug checks, ...), the backend, the
+folder per version of the package's source files (a hash of their contents and relative paths) and
+one file per program and argument signature, named by a hash of the function's module, name and
+source file, the JAX version and settings (x64, the PRNG, debug checks, ...), the backend, the
 static arguments and the arguments' shapes and dtypes: any edit of the package makes a new folder,
-and a stale file is never read. Files are small
-(about 12 kB); folders of other versions untouched for :data:`PRUNE_DAYS` days are deleted, and
-deleting the whole folder is always safe. The cache is on once :func:`enable` has been called
+and a process writes only while the package's files are those it imported. Files are small (about
+12 kB); folders of other versions untouched for :data:`PRUNE_DAYS` days are deleted, and deleting
+the whole folder is always safe. The cache is on once :func:`enable` has been called
 (``ipf-jax`` does it with the compilation cache, off with ``IPF_JAX_NO_CACHE``) and only on one
 device (an exported module fixes its device count; with several devices the programs are plain
 :func:`jax.jit`). A module that cannot be exported or read falls back to :func:`jax.jit` for that
