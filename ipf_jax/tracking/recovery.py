@@ -78,12 +78,15 @@ def local_grid(last_good: np.ndarray, foot: np.ndarray, shape: BodyShape, U: np.
 
 def recover(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera], U: np.ndarray,
             limits: Limits, shape: BodyShape, measure: Measure, still_lost: Callable[[np.ndarray], bool],
-            last_good: np.ndarray | None, *, global_settings: InitSettings) -> Recovery:
+            last_good: np.ndarray | None, *, global_settings: InitSettings,
+            beat: float | None = None) -> Recovery:
     """Search one frame for the lost subject (see module doc).
 
     masks, cameras : the active cameras only.  measure(particles, shape) -> weights.
     still_lost(pose) : whether a (D,) pose fails the loss test.  last_good : (D,) or None
-    (then only the global search runs).
+    (then only the global search runs).  beat : the weight the local result must exceed to end
+    the search (a track whose confidence collapsed while its shares still pass the loss test: a
+    local result no heavier than the estimate goes on to the global search).
     """
     evaluations = 0
     best = None
@@ -97,7 +100,7 @@ def recover(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera], 
         evaluations += len(grid) + res.evaluations
         best = Recovery(res.particles, res.weights, "local", evaluations)
         top = res.particles[int(np.nanargmax(res.weights))]
-        if not still_lost(top):
+        if not still_lost(top) and (beat is None or float(np.nanmax(res.weights)) > beat):
             return best
     res = initialise(jax.random.fold_in(rng_key, 1), masks, cameras, U, limits, shape, measure,
                      fixed_shape=shape, settings=global_settings)

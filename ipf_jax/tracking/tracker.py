@@ -566,7 +566,8 @@ class Tracker:
         try:
             res = recover(self.frame_key(frame, 2), [seen.masks[i] for i in active],
                           [self.cameras[i] for i in active], self.U, self.limits, state.shape,
-                          measure, still_lost, state.last_good, global_settings=self.recovery_search)
+                          measure, still_lost, state.last_good, global_settings=self.recovery_search,
+                          beat=w_best if trigger == "confidence" else None)
         except IPFError as e:  # a recovery attempt that cannot run keeps the track
             res = None
             info["reinit_error"] = e.message
