@@ -8,7 +8,8 @@ When the track is lost (:mod:`.loss`, or the relative confidence collapses) the 
    where the silhouettes now put the person and at headings around the last good heading (and
    turned round), each placed on the floor; the best distinct configurations are refined as in
    the initialisation (:func:`ipf_jax.tracking.initialise.refine_modes`, a small budget).
-2. **Global**: when the local result still fails the loss test, the full initialisation search
+2. **Global**: when the local result still fails the loss test (or, after a collapse of the
+   confidence, weighs no more than the estimate it would replace), the full initialisation search
    with the subject's shape (:func:`ipf_jax.tracking.initialise.initialise`, postures included).
 
 The best result found is returned with the evaluations it cost; the tracker accepts it only if it
