@@ -36,7 +36,6 @@ visible render has three cameras).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import subprocess
@@ -56,6 +55,7 @@ from ipf_jax.analysis.evaluation.metrics import (
 from ipf_jax.analysis.export.smoothed import smooth_joints
 from ipf_jax.data.rundir import read_run
 from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv, write_rows
+from ipf_jax.lowered import source_version
 from ipf_jax.paths import shared_data_dir
 from ipf_jax.profiling import machine
 
@@ -108,14 +108,9 @@ STAMP = "accuracy_stamp.json"
 
 
 def source_hash(tree: str | None) -> str:
-    """A hash of the ``ipf_jax`` sources a run uses (``tree``'s, or the one this script imports)."""
+    """The version of the ``ipf_jax`` sources a run uses (``tree``'s, or the one this script imports)."""
     import ipf_jax
-    pkg = Path(tree) / "ipf_jax" if tree else Path(ipf_jax.__file__).parent
-    h = hashlib.sha256()
-    for f in sorted(pkg.rglob("*.py")):
-        h.update(str(f.relative_to(pkg)).encode())
-        h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+    return source_version(Path(tree) / "ipf_jax" if tree else Path(ipf_jax.__file__).parent)[:16]
 
 
 def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None,

@@ -79,12 +79,17 @@ def _hash_files(root: Path, files) -> str:
     return h.hexdigest()
 
 
+def source_version(root: Path) -> str:
+    """A hash of every Python file under ``root`` (contents and relative paths; "" when there is
+    none): the version of a package's sources, wherever its checkout is."""
+    files = list(Path(root).rglob("*.py"))
+    return _hash_files(Path(root), files) if files else ""
+
+
 def _package_hash() -> str:
-    """A hash of every Python file of the package as it is on disk now ("" for an install without
-    its sources: then nothing is kept on disk, as no version could be told from another)."""
-    root = Path(__file__).resolve().parent
-    files = list(root.rglob("*.py"))
-    return _hash_files(root, files) if files else ""
+    """This package's :func:`source_version` as it is on disk now ("" for an install without its
+    sources: then nothing is kept on disk, as no version could be told from another)."""
+    return source_version(Path(__file__).resolve().parent)
 
 
 def _package_stamp() -> tuple:
@@ -198,9 +203,6 @@ class Program:
                     static[params[i]] = args[i]
                     args = args[:i] + args[i + 1:]
         return (self._via_disk if self._disk and _active() else self._jit)(*args, **static)
-
-    def lower(self, *args, **static):
-        return self._jit.lower(*args, **static)
 
     def _cache_size(self) -> int:
         """Signatures traced in this process (for tests that count retraces)."""
