@@ -8,8 +8,8 @@ When the track is lost (:mod:`.loss`, or the relative confidence collapses) the 
    where the silhouettes now put the person and at headings around the last good heading (and
    turned round), each placed on the floor; the best distinct configurations are refined as in
    the initialisation (:func:`ipf_jax.tracking.initialise.refine_modes`, a small budget).
-2. **Global**: when the local result still fails the loss test (or, after a collapse of the
-   confidence, weighs no more than the estimate it would replace), the full initialisation search
+2. **Global**: when the local result still fails the loss test or weighs no more than the
+   estimate it would replace (which the tracker would not accept), the full initialisation search
    with the subject's shape (:func:`ipf_jax.tracking.initialise.initialise`, postures included).
 
 The best result found is returned with the evaluations it cost; the tracker accepts it only if it
@@ -86,8 +86,8 @@ def recover(rng_key: jax.Array, masks: list[np.ndarray], cameras: list[Camera], 
     masks, cameras : the active cameras only.  measure(particles, shape) -> weights.
     still_lost(pose) : whether a (D,) pose fails the loss test.  last_good : (D,) or None
     (then only the global search runs).  beat : the weight the local result must exceed to end
-    the search (a track whose confidence collapsed while its shares still pass the loss test: a
-    local result no heavier than the estimate goes on to the global search).
+    the search (the estimate's: a lighter result would not be accepted, so the global search
+    runs instead; None: passing the loss test is enough).
     """
     evaluations = 0
     best = None

@@ -567,7 +567,7 @@ class Tracker:
             res = recover(self.frame_key(frame, 2), [seen.masks[i] for i in active],
                           [self.cameras[i] for i in active], self.U, self.limits, state.shape,
                           measure, still_lost, state.last_good, global_settings=self.recovery_search,
-                          beat=w_best if trigger == "confidence" else None)
+                          beat=w_best)
         except IPFError as e:  # a recovery attempt that cannot run keeps the track
             res = None
             info["reinit_error"] = e.message
