@@ -67,6 +67,25 @@ def test_scanline_dense_reference_agree_exactly_on_random_capsules(height, width
     np.testing.assert_array_equal(counts_all(caps, mask, "dense"), expected)
 
 
+def test_axis_aligned_capsules_with_flat_quad_edges_are_exact():
+    """Equal radii along a row or a column give the quad horizontal edges, which the scanline
+    solve handles apart (a gate on the quad's rows): on and between pixel centres, exact."""
+    height, width = 40, 56
+    rng = np.random.default_rng(5)
+    sets = []
+    for offset in (0.0, 0.5, 0.125, 0.375):
+        c0 = rng.integers(-6, [width + 6, height + 6], size=(17, 2)).astype(float) + offset
+        c1 = c0.copy()
+        c1[::2, 0] += rng.integers(1, 30, size=9)  # along a row: flat tangent edges
+        c1[1::2, 1] += rng.integers(1, 30, size=8)  # along a column: flat chords
+        r = rng.choice([0.5, 1.0, 2.5, 6.0], size=17) + offset
+        sets.append(capsule_outline(np, c0, r, c1, r, np.ones(17, bool)))
+    caps = np.stack(sets)
+    mask = rng.random((height, width)) < 0.4
+    expected = np.array([counts_from_caps(c, mask) for c in caps])
+    np.testing.assert_array_equal(counts_all(caps, mask, "scanline"), expected)
+
+
 def test_exact_on_real_bodytrack_masks(bodytrack_dir):
     rng = np.random.default_rng(7)
     for k in (1, 3):

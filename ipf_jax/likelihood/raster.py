@@ -151,102 +151,127 @@ def _proper_quad(corners):
 
 
 def _isqrt(xp, m):
-    """floor(sqrt(m)) for int32 0 <= m < 2**30, exact: nearest integer of the float root, then one
-    integer check (the float root is within 0.01 of the truth at these magnitudes)."""
-    s = xp.round(xp.sqrt(m.astype(xp.float32))).astype(xp.int32)
+    """floor(sqrt(m)) for int32 0 <= m < 2**30, exact, and -1 for m < 0: nearest integer of the
+    float root, then one integer check (the float root is within 0.01 of the truth at these
+    magnitudes)."""
+    s = xp.round(xp.sqrt(xp.maximum(m, 0).astype(xp.float32))).astype(xp.int32)
     return xp.where(s * s > m, s - 1, s)
 
 
-def _bound(xp, c, d, inv_d, t_lo, t_hi):
-    """Extreme integer t with ``d * t <= c`` (the largest if d > 0, the smallest if d < 0).
+def _floor_div(xp, n, ad, inv_ad, f_max):
+    """floor(n / ad) for int32 ``ad`` >= 1 (with ``inv_ad`` = 1 / ad, float32), clipped.
 
-    Exact whenever that t lies inside (t_lo, t_hi) (float32 bounds): the float quotient is then
-    within 0.01 of c/d, its nearest integer n is the answer or off by one, and one integer product
-    decides. Outside the window the clipped value keeps the right side, which is all the caller
-    needs (the bound then falls outside the image). No integer division: it is not vectorised on
-    CPUs.
+    Exact whenever the quotient lies inside (-f_max, f_max): the float quotient is then within
+    0.01 of n / ad (relative error ~2**-22 on a value < 2050), its nearest integer is the floor or
+    one above it, and one integer product decides. Outside, the clipped value stays on the right
+    side of the image, which is all the caller needs. No integer division: it is not vectorised
+    on CPUs.
     """
-    n = xp.clip(xp.round(c.astype(xp.float32) * inv_d), t_lo, t_hi).astype(xp.int32)
-    ok = d * n <= c
-    return xp.where(ok, n, n - xp.sign(d))
+    f = xp.clip(xp.round(n.astype(xp.float32) * inv_ad), -f_max, f_max).astype(xp.int32)
+    return xp.where(ad * f <= n, f, f - 1)
+
+
+_INT_MAX = np.int32((1 << 31) - 1)
 
 
 class RowCoeffs(NamedTuple):
     """What the row-interval solve needs of each capsule (:func:`row_coeffs`), arrays of the
-    capsules' batch shape (a pytree: JAX maps over its leaves).
+    capsules' batch shape (a pytree: JAX maps over its leaves), int32 unless said.
 
-    disc : 2 x (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid, int32;
-    edge : 4 x (ex, n0, d) of the quad's edges, int32: on fixed-point row ``y`` the edge's
-        half-plane holds the columns j with ``d j <= ex y + n0`` (``d = Q ey``);
-    inv_d : 4 x 1/d, float32 (1 where d = 0);  quad_on, drawn : bool.
+    disc : 2 x (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid; r^2 is -1 for a capsule
+        not drawn (no row then meets its discs);
+    edge : 4 x (ex, n0, ad, hi_add) of the quad's edges. On fixed-point row ``y`` an edge's
+        half-plane holds the columns j with ``d j <= n``, ``n = ex y + n0``, ``d = Q ey``; with
+        ``ad = |d|`` and ``f = floor(n / ad)`` that is ``j <= f`` if d > 0 and ``j >= -f`` if
+        d < 0. ``hi_add`` (0 if d > 0, far if d < 0) makes ``f + hi_add`` the edge's upper bound
+        and ``hi_add - far - f`` its lower bound, no select per row. A horizontal edge (d = 0)
+        bounds only the rows, which ``rows`` does: it is stored as (0, 0, 1, far / 2), whose
+        bounds (far / 2 and -far / 2) hold every column;
+    inv_d : 4 x 1/ad, float32;
+    rows : (first, last) fixed-point rows of the quad's corners; (int32 max, 0) for a capsule
+        without a quad (no row then meets it).
 
     Computed once per capsule, not once per row: XLA fuses such per-capsule work into the row loop
-    and, when the particle axis is the loop's innermost one, recomputes it for every row. Tuples,
-    not stacked arrays: the NumPy baseline calls this per capsule, and stacks would cost it time.
+    and, when the particle axis is the loop's innermost one, recomputes it for every row; and each
+    select folded into a coefficient here is an operation fewer on every row (the row loop is
+    arithmetic-bound; measured: docs/benchmarks.md). Tuples, not stacked arrays: the NumPy
+    baseline calls this per capsule, and stacks would cost it time.
     """
 
     disc: tuple
     edge: tuple
     inv_d: tuple
-    quad_on: jnp.ndarray
-    drawn: jnp.ndarray
+    rows: tuple
 
 
 def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
     """:class:`QuantCaps` (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
-    disc = tuple((qc.disc[..., k, 0], qc.disc[..., k, 1], qc.disc[..., k, 2] * qc.disc[..., k, 2])
+    disc = tuple((qc.disc[..., k, 0], qc.disc[..., k, 1],
+                  xp.where(qc.drawn, qc.disc[..., k, 2] * qc.disc[..., k, 2], -1).astype(xp.int32))
                  for k in range(2))
-    edges, inv_d = [], []
+    edges = []
     for k in range(4):
         a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
         ax, ay = a[..., 0], a[..., 1]
         ex, ey = b[..., 0] - ax, b[..., 1] - ay
         d = ey * q
-        edges.append((ex, ey * ax - ex * ay, d))
-        inv_d.append(np.float32(1.0) / xp.where(d == 0, 1, d).astype(xp.float32))
-    return RowCoeffs(disc, tuple(edges), tuple(inv_d), qc.quad_on, qc.drawn)
+        flat = d == 0  # bounds no column: the rows' gate holds it
+        hi_add = xp.where(d > 0, np.int32(0), xp.where(flat, np.int32(_FAR // 2), np.int32(_FAR)))
+        edges.append((xp.where(flat, 0, ex).astype(xp.int32),
+                      xp.where(flat, 0, ey * ax - ex * ay).astype(xp.int32),
+                      xp.where(flat, 1, xp.abs(d)).astype(xp.int32), hi_add))
+    inv_d = tuple(np.float32(1.0) / xp.maximum(e[2], 1).astype(xp.float32) for e in edges)
+    ys = [qc.quad[..., k, 1] for k in range(4)]
+    first = xp.minimum(xp.minimum(ys[0], ys[1]), xp.minimum(ys[2], ys[3]))
+    last = xp.maximum(xp.maximum(ys[0], ys[1]), xp.maximum(ys[2], ys[3]))
+    rows = (xp.where(qc.quad_on, first, _INT_MAX).astype(xp.int32),
+            xp.where(qc.quad_on, last, 0).astype(xp.int32))
+    return RowCoeffs(disc, tuple(edges), inv_d, rows)
 
 
 def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
     """Exact column interval of every capsule on fixed-point rows ``py`` (row-convex fill).
 
-    ``at`` maps a per-capsule array (shape ``rc.drawn.shape``) to one that broadcasts against
+    ``at`` maps a per-capsule array (the batch shape of ``rc``) to one that broadcasts against
     ``py`` (e.g. ``a[..., None]`` with rows last, ``a[:, None, :]`` with particles last). Returns
     lo, hi of the broadcast shape, int32, clipped to [-1, width] (empty when lo > hi).
     """
     shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
-    shape = xp.broadcast_shapes(py.shape, at(rc.drawn).shape)
-    lo = xp.full(shape, _FAR, xp.int32)
-    hi = xp.full(shape, -_FAR, xp.int32)
+    lo = hi = None
     for k in range(2):
         cx, cy, rr = (at(a) for a in rc.disc[k])
         dy = xp.clip(py - cy, -_BIG, _BIG)
         m = rr - dy * dy
-        s = _isqrt(xp, xp.maximum(m, 0))
+        s = _isqrt(xp, m)  # -1 on a row the disc misses: the chord below is then empty
         d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
-        ok = (m >= 0) & (d_lo <= d_hi)  # a chord may hold no pixel centre
-        lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
-        hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
-    # quad: intersection of 4 half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with
-    # d = Q ey and n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band
-    q_lo = xp.full(shape, -_FAR, xp.int32)
-    q_hi = xp.full(shape, _FAR, xp.int32)
-    q_ok = xp.broadcast_to(at(rc.quad_on), shape)
-    j_lo, j_hi = np.float32(-2), xp.asarray(width + 2).astype(xp.float32)  # columns that matter
+        ok = d_lo <= d_hi  # a chord may hold no pixel centre
+        if lo is None:
+            lo, hi = xp.where(ok, d_lo, np.int32(_FAR)), xp.where(ok, d_hi, np.int32(-_FAR))
+        else:
+            lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
+            hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
+    # quad: the rows between its corners, and there the intersection of its sloped edges'
+    # half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with d = Q ey and
+    # n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band. Each bound is
+    # exact inside (-width - 2, width + 2), then clipped to [-3, width + 2] (upper) and
+    # [-2, width + 3] (lower): a bound beyond the image keeps its side, and two bounds on one side
+    # leave the row empty.
+    f_max = xp.asarray(width + 2).astype(xp.float32)
+    q_lo = q_hi = None
     for k in range(4):
-        ex, n0, d = (at(a) for a in rc.edge[k])
+        ex, n0, ad, hi_add = (at(a) for a in rc.edge[k])
         n = ex * py + n0
-        j = _bound(xp, n, d, at(rc.inv_d[k]), j_lo, j_hi)
-        q_hi = xp.where(d > 0, xp.minimum(q_hi, j), q_hi)
-        q_lo = xp.where(d < 0, xp.maximum(q_lo, j), q_lo)
-        q_ok = q_ok & ((d != 0) | (n >= 0))
-    q_ok = q_ok & (q_lo <= q_hi)
+        f = _floor_div(xp, n, ad, at(rc.inv_d[k]), f_max)
+        upper, lower = f + hi_add, hi_add - (f + np.int32(_FAR))
+        q_hi = upper if q_hi is None else xp.minimum(q_hi, upper)
+        q_lo = lower if q_lo is None else xp.maximum(q_lo, lower)
+    q_hi = xp.clip(q_hi, -3, width + 2)
+    q_lo = xp.clip(q_lo, -2, width + 3)
+    first, last = (at(a) for a in rc.rows)
+    q_ok = (py >= first) & (py <= last) & (q_lo <= q_hi)
     lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
     hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
-    drawn = at(rc.drawn)
-    lo = xp.where(drawn, xp.clip(lo, -1, width), width)
-    hi = xp.where(drawn, xp.clip(hi, -1, width), -1)
-    return lo, hi
+    return xp.clip(lo, -1, width), xp.clip(hi, -1, width)
 
 
 def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
