@@ -165,7 +165,8 @@ class Program:
     module, name and source file, not by the values a closure holds); others, signatures with a
     weak-typed argument (a Python scalar: its exported type would not be weak), and static
     values other than numbers, strings, None and tuples of them are traced as the plain jit.
-    Under :func:`jax.vmap` use the plain jit (``call_exported`` has no batching rule)."""
+    Under :func:`jax.vmap` use the plain jit (``call_exported`` has no batching rule); inside another
+    program call ``fn``, the function itself, so it is traced into that program."""
 
     def __init__(self, fn, static_argnames: tuple[str, ...] = (), compiler_options: dict | None = None):
         self.fn = fn

@@ -31,11 +31,11 @@ from ..lowered import Program
 from .base import (
     Filter,
     FilterState,
-    _resample_draws,
     default_noise_rates,
     init_state,
     rate_std,
     resample_diffuse,
+    resample_draws,
     summarise,
 )
 
@@ -136,7 +136,8 @@ def annealed_weights(likelihood: np.ndarray, target: float) -> tuple[np.ndarray,
 def layer_draws(rng_key: jax.Array, layers: int, shape: tuple[int, int]) -> tuple:
     """Every layer's resampling draws, ``resample_draws(fold_in(rng_key, layer), shape)``, in one
     compiled call (dispatched ahead of the frame by the tracker: see ``Filter.draws``)."""
-    return tuple(_resample_draws(jax.random.fold_in(rng_key, layer), shape) for layer in range(layers))
+    draw = resample_draws.fn  # the function itself: traced into this program
+    return tuple(draw(jax.random.fold_in(rng_key, layer), shape) for layer in range(layers))
 
 
 def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
