@@ -136,7 +136,7 @@ def test_local_recovery_finds_a_posture_from_a_standing_pose(posture):
     assert res.stage == "local" and not still_lost(best)
     knee = np.rad2deg(best[DOF_INDEX["left_knee_flexion"]])
     assert knee > 60, knee  # a bent-knee posture, not a standing one
-    if posture == "sit":  # a confidence collapse: a local result no heavier than ``beat`` goes on
+    if posture == "sit":  # a local result no heavier than ``beat`` (the estimate) goes on
         more = recover(np.array([0, 7], np.uint32), masks, cams, U, load_limits(), SHAPE, measure,
                        still_lost, standing, global_settings=FAST_INIT, beat=np.inf)
         assert more.evaluations > res.evaluations  # the global search ran too
