@@ -87,7 +87,8 @@ def summarise(particles: np.ndarray, weights: np.ndarray, evaluations: int) -> F
     """Estimate (heaviest particle) and weighted mean of a weighted particle set."""
     i = best_index(weights)
     w = np.where(np.isfinite(weights), np.maximum(weights, 0.0), 0.0)
-    mean = particles[i] if w.sum() <= 0 else (w[:, None] * particles).sum(0) / w.sum()
+    total = w.sum()
+    mean = particles[i] if total <= 0 else (w @ particles) / total  # no (N, D) temporary
     return FilterInfo(particles[i].copy(), float(weights[i]), mean, int(evaluations))
 
 

@@ -350,7 +350,8 @@ class Tracker:
         """The per-camera shares of ``pose`` (:mod:`.loss`), from its counts in ``log`` when this
         frame scored it (it almost always did), else scored once more (appended to ``log``)."""
         for particles, counts in reversed(log):
-            hit = np.flatnonzero((particles == pose).all(1))
+            same = np.flatnonzero(particles[:, 0] == pose[0])  # one column, then those rows whole
+            hit = same[(particles[same] == pose).all(1)]
             if hit.size:
                 return coverage(counts[hit[0]], obs.active)
         self.measure(obs, shape, log)(pose[None])
