@@ -5,14 +5,15 @@
 
 A filter's frame is a fixed sequence of measure calls (``Filter.calls``: IPF one of 6561, the
 factored filter 14 of 1017 / 648 / 216 / 72 particles). The scorer evaluates each call in chunks of
-a fixed compiled size, the last one padded, so the chunk size decides how many particles are
-really rasterised and how many compiled calls are dispatched. On the bench scene
+a fixed compiled size, the last one padded, and a given number of chunks per compiled call
+(:func:`~ipf_jax.likelihood.scorer.pick_chunking` chooses it for each chunk size), so the chunk
+size decides how many particles are really rasterised and how many compiled calls are dispatched. On the bench scene
 (:func:`ipf_jax.profiling.load_scene`: PARSEC ``sequenceB_2`` frame 0, its real cameras and masks,
 poses around bodytrack's initial pose), each chunk size's scorer runs the filter's whole call
 sequence, the sizes taking turns repeat by repeat (so a drift of the machine's speed hits all of
 them alike). Prints and writes, per chunk: median and minimum seconds per frame's calls, the ratio
 to the largest chunk measured in this run, and the ratio :func:`ipf_jax.likelihood.scorer.chunk_cost`
-predicts; and the chunk :func:`~ipf_jax.likelihood.scorer.pick_chunk` chooses for the filter.
+predicts; and the chunking :func:`~ipf_jax.likelihood.scorer.pick_chunking` chooses for the filter.
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ import numpy as np
 
 from ipf_jax.body.limits import load_limits
 from ipf_jax.filters import registry
-from ipf_jax.likelihood.scorer import chunk_cost, pick_chunk
+from ipf_jax.likelihood.scorer import call_blocks, chunk_cost, pick_chunking
 from ipf_jax.paths import shared_data_dir
 from ipf_jax.profiling import DATASET, device_line, load_scene, machine, measure_step
 
@@ -45,7 +46,8 @@ def main(argv=None) -> int:
     calls = registry.make(args.filter, {}, load_limits("default"), 20.0, budget=args.budget).calls
     print(device_line())
     scene = load_scene(shared_data_dir() / DATASET, args.width, args.cameras, max(calls))
-    fns = {c: measure_step("jax-scanline", scene, chunk=c) for c in chunks}
+    fns = {c: measure_step("jax-scanline", scene, chunk=c, calls=calls) for c in chunks}
+    chunkings = {c: pick_chunking(calls, chunk=c) for c in chunks}
     for fn in fns.values():  # compile (or load) every shape first
         for n in sorted(set(calls)):
             fn(scene.particles[:n])
@@ -62,14 +64,16 @@ def main(argv=None) -> int:
         med = float(np.median(times[c]))
         rows.append({"chunk": c, "median_s": round(med, 4), "min_s": round(min(times[c]), 4),
                      "ratio_to_largest": round(med / float(np.median(times[ref])), 3),
-                     "model_ratio": round(chunk_cost(calls, c) / chunk_cost(calls, ref), 3),
+                     "model_ratio": round(chunk_cost(calls, chunkings[c])
+                                          / chunk_cost(calls, chunkings[ref]), 3),
+                     "chunks_per_call": chunkings[c].block,
                      "particles_rasterised": int(sum(-(-n // c) * c for n in calls)),
-                     "compiled_calls": int(sum(-(-n // c) for n in calls))})
+                     "compiled_calls": int(sum(len(call_blocks(n, chunkings[c])) for n in calls))})
     doc = {"filter": args.filter, "budget": args.budget, "calls": list(calls), "cameras": args.cameras,
-           "width": args.width, "repeats": args.repeats, "picked_chunk": pick_chunk(calls),
+           "width": args.width, "repeats": args.repeats, "picked_chunk": list(pick_chunking(calls)),
            "machine": machine(), "rows": rows}
     args.json.write_text(json.dumps(doc, indent=1))
-    print(f"{args.filter} calls {list(calls)}: pick_chunk -> {doc['picked_chunk']}")
+    print(f"{args.filter} calls {list(calls)}: pick_chunking -> {doc['picked_chunk']} (chunk, block)")
     print("chunk  median s  min s  ratio  model  rasterised  calls")
     for r in rows:
         print(f"{r['chunk']:5d}  {r['median_s']:8.4f}  {r['min_s']:.4f}  {r['ratio_to_largest']:.3f}  "

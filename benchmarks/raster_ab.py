@@ -77,7 +77,7 @@ def main():
     scene = profiling.load_scene(Path(args.data), args.width, args.cameras, 6561)
     s = scorer.Scorer(scene.cameras, scene.shape, scene.up, chunk=512)
     _, ext = s.geometry(scene.particles, kernel="scanline")
-    records, _ = s.geometry(scene.particles[:512], kernel="dense")  # (15, S, B) per camera
+    records, _ = s.geometry(scene.particles[:512], kernel="dense")  # (1, 15, S, B) per camera
     win = s.plan(ext)
     q, long_side = s.q, s.long_side
     block = jnp.asarray(np.ascontiguousarray(scene.particles[:512].T, np.float32))
@@ -98,7 +98,7 @@ def main():
            "device": jax.devices()[0].device_kind, "jax": jax.__version__, "stages": {}}
     calls = {}
     for c in range(args.cameras):
-        by_seg = jnp.moveaxis(records[0][c], 0, -1)  # (S, B, 15)
+        by_seg = jnp.moveaxis(records[0][c][0], 0, -1)  # (S, B, 15)
         h, w, rows = s.heights[c], s.widths[c], win.rows[c]
         packed = {}
         for name, mod in mods.items():

@@ -88,14 +88,17 @@ def load_scene(data: Path, width: int, n_cameras: int, n: int, *, seed: int = 0)
     return Scene(cams, masks, particles, default_shape().scaled_to(height), up_rotation("+z"), q0)
 
 
-def measure_step(backend: str, scene: Scene, *, chunk: int | None = None):
-    """The full measure step of a backend: (N, D) particles -> (N,) weights."""
-    from .likelihood.scorer import Scorer, make_observation, weights_from_counts
+def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=None):
+    """The full measure step of a backend: (N, D) particles -> (N,) weights. The JAX scorer's
+    chunking is the tracker's for measure calls of ``calls`` particles (default: one call of the
+    scene's particles; ``chunk`` given: only the chunks per compiled call are chosen)."""
+    from .likelihood.scorer import Scorer, make_observation, pick_chunking, weights_from_counts
 
     obs = make_observation(scene.masks)
     if backend.startswith("jax-"):
-        kw = {} if chunk is None else {"chunk": chunk}
-        scorer = Scorer(scene.cameras, scene.shape, scene.up, kernel=backend[4:], **kw)
+        chunk, block = pick_chunking(calls or [len(scene.particles)], chunk=chunk)
+        scorer = Scorer(scene.cameras, scene.shape, scene.up, kernel=backend[4:], chunk=chunk,
+                        block=block)
         return lambda p: weights_from_counts(scorer.counts(p, obs), obs.active)[0]
     if backend == "numpy-scanline":
         from .reference import scanline as ref
@@ -175,9 +178,11 @@ def _common() -> dict:
 def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
                   budget_s: float = 60.0, chunk: int | None = None) -> tuple[dict, np.ndarray]:
     """Time the measure step of ``backend`` on the first ``n`` poses -> (record, weights)."""
+    from .likelihood.scorer import pick_chunking
+
     exact_peak = _reset_peak()
     particles = scene.particles[:n]
-    fn = measure_step(backend, scene, chunk=chunk)
+    fn = measure_step(backend, scene, chunk=chunk, calls=[n])
     t0 = time.perf_counter()
     weights = fn(particles)  # compiles (JAX), fixes the window sizes
     first = time.perf_counter() - t0
@@ -192,6 +197,8 @@ def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
     h, w = scene.masks[0].shape
     rec = {"backend": backend, "height": h, "width": w, "cameras": len(scene.cameras),
            "particles": n, "particles_per_s": round(n / med, 1),
+           "chunking": (list(pick_chunking([n], chunk=chunk)) if backend.startswith("jax-")
+                        else None),
            "compile_s": round(max(first - med, 0.0), 3) if backend.startswith("jax-") else None,
            "peak_rss_mb": round(_peak_mb(), 1), **_common(),
            "task": "measure", "seconds": round(med, 5), "repeats": len(times),
@@ -300,10 +307,11 @@ def stage_timings(scene: Scene, *, chunk: int = 512, repeats: int = 7) -> dict:
     Returns ``{"chunk", "sizes", "stages": {name: (wall_s, cpu_s) per chunk}, "whole": (wall_s,
     cpu_s) for all particles}``.
     """
-    from .likelihood.scorer import Scorer, make_observation
+    from .likelihood.scorer import Scorer, make_observation, pick_chunking
 
     obs = make_observation(scene.masks)
-    s = Scorer(scene.cameras, scene.shape, scene.up, chunk=chunk)
+    s = Scorer(scene.cameras, scene.shape, scene.up, chunk=chunk,
+               block=pick_chunking([len(scene.particles)], chunk=chunk).block)
     whole = timed(lambda: s.counts(scene.particles, obs), repeats)
     stages = {name: timed(fn, repeats) for name, fn in s.stages(scene.particles, obs).items()}
     return {"chunk": s.chunk, "sizes": [tuple(z) for z in s.sizes], "stages": stages, "whole": whole}

@@ -1,5 +1,4 @@
 """The batched scorer: agreement with the NumPy pipeline, chunk/ROI invariance, weight rules."""
-import chex
 import numpy as np
 import pytest
 
@@ -64,6 +63,18 @@ def test_chunking_and_roi_do_not_change_counts(scene):
     assert [small.block_size(n) for n in (40, 8, 5, 3)] == [32, 8, 8, 4]
     np.testing.assert_array_equal(small.counts(particles, obs), b)
     np.testing.assert_array_equal(small.counts(particles[:3], obs), b[:3])
+    # a call's chunks in compiled calls of `block` chunks, the rest one per call
+    n = len(particles)
+    assert n == 40 and Scorer(cams, SHAPE, U, chunk=7)._blocks(n) == [(i, min(7, n - i), 1, 7)
+                                                                      for i in range(0, n, 7)]
+    four = Scorer(cams, SHAPE, U, chunk=7, block=4)
+    assert four._blocks(n) == [(0, 28, 4, 7), (28, 7, 1, 7), (35, 5, 1, 7)]
+    np.testing.assert_array_equal(four.counts(particles, obs), b)
+    np.testing.assert_array_equal(four.counts(particles, obs, full_roi=True), b)
+    np.testing.assert_array_equal(Scorer(cams, SHAPE, U, chunk=7, block=4, kernel="dense").counts(
+        particles, obs), b)
+    assert Scorer(cams, SHAPE, U, chunk=5, block=8)._blocks(n) == [(0, 40, 8, 5)]  # one call
+    assert small._blocks(40) == [(0, 32, 1, 32), (32, 8, 1, 8)]
 
 
 def test_reset_windows_sizes_them_to_the_next_call(scene):
@@ -149,43 +160,63 @@ def test_windows_hold_every_capsule(scene):
 
 def test_no_retrace_across_frames(scene):
     """One compile per shape: after the first frame, no stage is traced again."""
+    import collections
+
     import jax
 
     from ipf_jax.likelihood import scorer as likelihood
 
     cams, q, masks, particles = scene
-    scorer = Scorer(cams, SHAPE, U, chunk=16)
-    scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
-    stages = {"_geometry_jit": ("_geometry_impl", ("long_side", "scan_q")),
-              "_intervals_jit": ("_intervals_impl", ("q",)),
-              "_words_jit": ("_words_impl", ("n_win", "n_win_words", "n_rows", "n_words"))}
+    stages = {"_geometry_calls_jit": ("_geometry_calls_impl", ("long_side", "scan_q")),
+              "_counts_jit": ("_counts_impl", ("q", "long_side", "sizes", "dense"))}
+    traces = collections.Counter()
     saved = {name: getattr(likelihood, name) for name in stages}
+
+    def counted(impl):
+        fn = getattr(likelihood, impl)
+
+        def traced(*args, **static):
+            traces[impl] += 1
+            return fn(*args, **static)
+        return traced
+
     try:
         for name, (impl, static) in stages.items():
-            counted = chex.assert_max_traces(getattr(likelihood, impl), n=1)
-            setattr(likelihood, name, jax.jit(counted, static_argnames=static))
+            setattr(likelihood, name, jax.jit(counted(impl), static_argnames=static))
+        scorer = Scorer(cams, SHAPE, U, chunk=16, block=2)
+        scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
+        first = dict(traces)
+        # 40 particles in chunks of 16: a call of 2 chunks and one of 1 (K = 2 and 1); the
+        # counts' also per camera when the two cameras' window sizes differ
+        assert first["_geometry_calls_impl"] == 2 and first["_counts_impl"] in (2, 3, 4)
         rng = np.random.default_rng(1)
         for i in range(1, 6):  # new masks and a moving cloud, as in tracking
             moved = particles + rng.normal(0, 0.003, size=particles.shape)
             scorer.counts(moved, make_observation(list(masks[i])))
+        assert dict(traces) == first
     finally:
         for name, fn in saved.items():
             setattr(likelihood, name, fn)
 
 
 def test_chunk_sizes_follow_the_filters_calls():
-    """IPF's one call of 6561 keeps 512-particle chunks; the factored filter's 14 calls of 1017,
-    648, 216 and 72 particles (M 8) get 216, which pads 6,912 particles instead of 11,264."""
+    """IPF's one call of 6561 gets 16 chunks of 416 in one compiled call (the same 6656 particles
+    as 13 chunks of 512, in one call instead of 13); the factored filter's 14 calls of 1017, 648,
+    216 and 72 particles (M 8) get chunks of 216, which pad 6,912 particles instead of 11,264."""
     from ipf_jax.body.limits import load_limits
     from ipf_jax.filters import registry
-    from ipf_jax.likelihood.scorer import pick_chunk
+    from ipf_jax.likelihood.scorer import Chunking, call_blocks, pick_chunking
     limits = load_limits("default")
     make = lambda name: registry.make(name, {}, limits, 20.0, budget=6561)  # noqa: E731
-    assert pick_chunk(make("ipf").calls) == 512
+    assert pick_chunking(make("ipf").calls) == Chunking(416, 16)
+    assert call_blocks(6561, Chunking(416, 16)) == [16]
+    assert call_blocks(6561, Chunking(512, 8)) == [8, 1, 1, 1, 1, 1]
+    assert call_blocks(6561, Chunking(512)) == [1] * 13
     fipf = make("fipf")
-    assert pick_chunk(fipf.calls) == 216
+    assert pick_chunking(fipf.calls).chunk == 216
     assert sum(-(-n // 216) * 216 for n in fipf.calls) == 6912
     assert sum(-(-n // 512) * 512 for n in fipf.calls) == 11264
+    assert pick_chunking([6561], chunk=512).chunk == 512  # --chunk: only the block is chosen
 
 
 def test_window_buckets_come_from_a_fixed_ladder():

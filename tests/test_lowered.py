@@ -175,7 +175,7 @@ def test_the_scorer_counts_the_same_through_the_cache(cache):
     particles = q[1] + np.random.default_rng(2).normal(0, 0.02, (24, q.shape[1]))
     obs = S.make_observation(list(masks[1]))
     up = up_rotation("+z")
-    stages = (S._geometry_jit, S._intervals_jit, S._words_jit, S._dense_jit)
+    stages = (S._geometry_calls_jit, S._counts_jit)
     jax.clear_caches()  # whatever ran before: this process traces the stages again
     exported = [p.exports for p in stages]
     via_disk = S.Scorer(cams, shape, up, chunk=16).counts(particles, obs)

@@ -275,12 +275,17 @@ def test_rendering_pose_scores_the_maximum_through_the_cameras(frame, offsets):
 @given(calls=st.lists(st.integers(1, 5000), min_size=1, max_size=16),
        limit=st.sampled_from([64, 128, 512, 1000]))
 def test_the_chunk_picked_for_a_filter_is_never_worse_than_the_default(calls, limit):
-    """Host-only: :func:`pick_chunk` stays within its range and never raises the modelled cost."""
-    from ipf_jax.likelihood.scorer import chunk_cost, pick_chunk
-    c = pick_chunk(calls, limit)
-    assert 1 <= c <= limit
-    assert chunk_cost(calls, c) <= chunk_cost(calls, limit)
-    assert c == limit or (c % 8 == 0 and chunk_cost(calls, c) <= 0.9 * chunk_cost(calls, limit))
+    """Host-only: :func:`pick_chunking` stays within its range and never raises the modelled cost;
+    its calls cover every particle."""
+    from ipf_jax.likelihood.scorer import MAX_CALL_CHUNKS, Chunking, call_blocks, chunk_cost, pick_chunking
+    got = pick_chunking(calls, limit)
+    c, b = got
+    assert 1 <= c <= limit and 1 <= b <= MAX_CALL_CHUNKS and b & (b - 1) == 0
+    base = chunk_cost(calls, Chunking(limit))
+    assert chunk_cost(calls, got) <= base
+    assert got == Chunking(limit) or (c % 8 == 0 and chunk_cost(calls, got) <= 0.9 * base)
+    for n in calls:
+        assert sum(call_blocks(n, got)) * c >= n > (sum(call_blocks(n, got)) - 1) * c
 
 
 @PROPERTY

@@ -132,12 +132,12 @@ def test_a_body_per_particle_scores_like_one_body_per_call_and_never_recompiles(
     for k, b in enumerate(bodies):
         scorer.set_shape(b)
         assert np.array_equal(scorer.counts(qq[k:k + 1], obs)[0], per_particle[k])
-    size = likelihood._geometry_jit._cache_size()
+    size = likelihood._geometry_calls_jit._cache_size()
     rng = np.random.default_rng(1)
     for _ in range(3):  # new shape candidates are data: no new trace of the geometry stage
         vals = P.build(default_shape().values, rng.normal(0, 0.1, (3, P.NUM_GROUPS)))
         scorer.counts(qq, obs, shapes=vals)
-    assert likelihood._geometry_jit._cache_size() == size
+    assert likelihood._geometry_calls_jit._cache_size() == size
 
 
 def test_lowest_heights_match_the_reference_placement():

@@ -13,17 +13,23 @@ Definitions (also in docs/formats.md):
 * A camera whose mask is empty on a frame is skipped for that frame (recorded by the tracker); ``w``
   is the mean of ``w_c`` over the remaining cameras; with none left the frame is missing.
 
-:class:`Scorer` owns the compiled functions and runs them in three stages per chunk of particles,
-because fused into one program XLA recomputes the row intervals once per word:
+:class:`Scorer` owns the compiled functions and runs them in three stages, because fused into one
+program XLA recomputes the row intervals once per word:
 
 1. geometry (all cameras, one batched program with the particle axis last): FK of the distinct
    capsule ends, all of them projected into all cameras in one step, each capsule's quantised
    row coefficients per camera (:class:`~ipf_jax.likelihood.raster.RowCoeffs`, batch (S, B); the
    dense kernel gets the records (15, S, B)), and each capsule's extent in each camera, reduced
-   over the chunk (:func:`ipf_jax.likelihood.raster.segment_extent`);
-2. row intervals of the camera's row list, each capsule's own rows of its window (one camera per
-   call; (T, B));
-3. bit words, union, AND with the mask, popcount (one camera per call).
+   over the particles (:func:`ipf_jax.likelihood.raster.segment_extent`);
+2. row intervals of the camera's row list, each capsule's own rows of its window ((T, B));
+3. bit words, union, AND with the mask, popcount.
+
+Particles go in chunks of B (memory and cache stay bounded) and a call's chunks in blocks of K
+(:class:`Chunking`; :func:`pick_chunking` fits B and K to a filter's calls): stage 1 is one
+compiled call per block, stages 2 and 3 one per block and camera, each running its K chunks one
+after the other (``lax.map``), so a frame dispatches a few programs instead of three per chunk
+and camera (1.2-1.3x less time on a frame's particles; each K is one more program to load:
+docs/benchmarks.md).
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
 capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, a
@@ -34,15 +40,13 @@ wide search (:meth:`Scorer.reset_windows`), so a run compiles a handful of shape
 are data. Only the
 model's pixels need to be inside: Nc counts model pixels on the mask and ``|mask|`` is known, so the
 (possibly cluttered) mask's extent does not matter. Windows cut the work by the ratio of a capsule's
-extent to the model's (about 4x for a standing person). Particles are evaluated in fixed-size
-chunks so memory stays bounded (a call's last few in a smaller one when :data:`SMALL_CHUNKS` are
-on), and a chunk is sharded over all local devices.
+extent to the model's (about 4x for a standing person). A call's last few particles go in a
+smaller chunk when :data:`SMALL_CHUNKS` are on, and each chunk is sharded over all local devices.
 """
 from __future__ import annotations
 
 import collections
 import functools
-import itertools
 from typing import NamedTuple
 
 import jax
@@ -81,11 +85,11 @@ from .raster import (
 KERNELS = ("scanline", "dense")
 #: Particles per compiled call unless told: bounds memory, never changes a count.
 DEFAULT_CHUNK = 512
-#: Host and dispatch cost of one compiled call, in particles' worth of scoring. Fitted on the
-#: factored filter's 14 calls per frame (4 cameras, 320x240, one run, ``benchmarks/chunk_sizes.py``):
-#: chunks of 128 / 216 / 256 particles took 0.79 / 0.66 / 0.72 of the time chunks of 512 took; the
-#: cost model of :func:`pick_chunk` gives 0.80 / 0.66 / 0.75.
-CALL_OVERHEAD = 32
+#: Host and dispatch cost of one compiled call, in particles' worth of scoring: IPF's 6561
+#: particles in one call of 16 chunks instead of 16 calls of one took 0.35 ms less per call
+#: avoided with one camera (27.9 against 33.1 ms), APF's 4000 in one call of 8 chunks 1.3 ms less
+#: with four (51.2 against 60.2 ms): 80-100 particles' worth (docs/benchmarks.md).
+CALL_OVERHEAD = 80
 #: Smaller compiled calls for a call's last particles, for scorers whose window sizes are fixed
 #: (the shape fit's, once its windows hold the largest body: :meth:`Scorer.set_small_chunks`).
 #: Its compass steps score 4-127 particles at a time; padded to a 216- or 512-particle chunk, such
@@ -93,6 +97,15 @@ CALL_OVERHEAD = 32
 #: each size is one more program per window size, so a scorer whose sizes follow the frames (the
 #: tracker's) does not use them (measured: docs/benchmarks.md).
 SMALL_CHUNKS = (32, 128)
+#: Chunks in one compiled call at most (:class:`Chunking`'s ``block``, a power of two).
+MAX_CALL_CHUNKS = 16
+#: One-off cost of each program size (a call of one chunk, a call of a block) a filter's frame
+#: uses, in particles' worth per frame: every such size is one more program per window size,
+#: traced and loaded when the sizes change, and the geometry's takes ~0.25 s to load, ~2.5 s to
+#: compile (IPF, one camera, 40 frames: calls of 8, 4 and 1 chunks, 19 programs against 7, 0.9 s
+#: more per run, about 2000 particles' worth a frame). Counted as a quarter of that: longer runs
+#: pay it less, and padding is paid on every frame.
+PROGRAM_COST = 512
 #: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
 #: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
 SHRINK_FRAMES = 8
@@ -232,6 +245,55 @@ for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple argumen
     register_namedtuple(_t)
 
 
+def _reduce_extents(ext):
+    """(K, ..., 4) extents -> (..., 4): the box holding all K."""
+    return jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
+                      ext[..., 3].max(0)], -1)
+
+
+def _geometry_calls_impl(q, shape_values, up, cams, long_side, scan_q):
+    """Stage 1 for K chunks in one program: (K, B, D) particles -> per camera the records of
+    :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
+    ``shape_values`` (P,) or (K, B, P). The chunks run one after the other (``lax.map``), each
+    on a chunk's working set, as K calls of :func:`_geometry_impl` would, without K dispatches."""
+    if shape_values.ndim == 1:
+        recs, ext = jax.lax.map(lambda qk: _geometry_impl(qk, shape_values, up, cams, long_side,
+                                                          scan_q), q)
+    else:
+        recs, ext = jax.lax.map(lambda a: _geometry_impl(a[0], a[1], up, cams, long_side, scan_q),
+                                (q, shape_values))
+    return recs, _reduce_extents(ext)
+
+
+def _counts_impl(recs, rows, sil_words, row0, word0, win_rows, win_words, height, width, q,
+                 long_side, sizes, dense):
+    """Stages 2 and 3 for K chunks in one program, one camera: the camera's records of
+    :func:`_geometry_calls_impl` (leading K axis) -> (K, B, 2) int32 (Nc, Nm_total).
+
+    ``sizes``: the camera's (R, Wd, grid rows, grid words), static. Chunk by chunk (``lax.map``),
+    the row intervals then the words, as the separate programs :func:`_intervals_impl` (or
+    :func:`_dense_impl`) and :func:`_words_impl` would: the word stage's capsule loop reads the
+    intervals as a loop operand, so they are materialised once per chunk, not recomputed per
+    word. One program instead of two per chunk (docs/benchmarks.md: with the geometry's one
+    program, 1.1-1.3x less time on a frame's particles)."""
+    n_win, n_win_words, n_rows, n_words = sizes
+
+    def chunk(rec):
+        if dense:
+            packed = _dense_impl(rec, rows, win_rows, win_words, height, width, n_win, n_win_words,
+                                 q, long_side)
+        else:
+            packed = _intervals_impl(rec, rows, height, width, q)
+        return _words_impl(packed, rows, sil_words, row0, word0, win_rows, win_words, n_win,
+                           n_win_words, n_rows, n_words)
+
+    return jax.lax.map(chunk, recs)
+
+
+#: The measure step's two programs (:meth:`Scorer.counts`).
+_geometry_calls_jit = _compiled(_geometry_calls_impl, "long_side", "scan_q")
+_counts_jit = _compiled(_counts_impl, "q", "long_side", "sizes", "dense")
+#: Each stage alone on one chunk (:meth:`Scorer.stages`: profiles and benchmarks).
 _geometry_jit = _compiled(_geometry_impl, "long_side", "scan_q")
 _intervals_jit = _compiled(_intervals_impl, "q")
 _dense_jit = _compiled(_dense_impl, "n_win", "n_win_words", "q", "long_side")
@@ -264,70 +326,98 @@ class Windows(NamedTuple):
     rows: tuple
 
 
-def _list_layout(skip: np.ndarray, count: np.ndarray, n_win: int) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """Where each capsule's entries go in the row list: (order of the capsules, ``own`` (S,) the
-    entry of each capsule's first row, ``pad`` entries in front, entries needed). A window of R
-    rows reads R entries from ``own - skip``, so it can run past the capsule's own entries by its
-    rows below them (``R - skip - count``): the capsules go in decreasing order of that (the list
-    then ends as early as it can: Jackson's rule), and entries are padded in front when a window
-    would start before the list."""
-    tail = n_win - skip - count
-    order = np.argsort(-tail, kind="stable")
-    counts = count[order]
-    own_sorted = np.cumsum(counts) - counts
-    pad = max(0, int(np.max(skip[order] - own_sorted)))
-    own = np.empty(len(count), np.int64)
-    own[order] = own_sorted + pad
-    need = max(pad + int(count.sum()), int(np.max(own - skip)) + n_win)
-    return order, own, pad, need
+def _list_layout(skip: np.ndarray, count: np.ndarray, n_win: int) -> tuple[np.ndarray, int]:
+    """Where each capsule's entries go in the row list: (``own`` (S,) the entry of each capsule's
+    first row, entries needed). A window of R rows reads R entries from ``own - skip``, so it can
+    run past the capsule's own entries by its rows below them (``R - skip - count``): the capsules
+    go in decreasing order of that (the list then ends as early as it can: Jackson's rule), each
+    one's rows after the last capsule's, or later when its window would start before the list (a
+    gap of filler entries). A capsule seen nowhere (no rows) reads the list's first R entries, all
+    masked."""
+    own = skip.astype(np.int64).copy()  # unseen capsules: first = own - skip = 0
+    cursor = 0
+    for s in np.argsort(-(n_win - skip - count), kind="stable"):
+        if count[s] > 0:
+            own[s] = max(cursor, int(skip[s]))
+            cursor = int(own[s] + count[s])
+    return own, max(cursor, int(np.max(own - skip)) + n_win)
 
 
 def row_list(win_rows: np.ndarray, skip: np.ndarray, count: np.ndarray, n_win: int,
              n_list: int) -> RowList:
     """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of each capsule's ``count[s]`` rows
-    from row ``skip[s]`` of its window (S,), ordered and padded by :func:`_list_layout` to
-    ``n_list`` entries (copies of the first and last), ``list_need(skip, count, n_win) <= n_list``."""
-    order, own, pad, _ = _list_layout(skip, count, n_win)
-    counts = count[order]
-    seg = np.repeat(order, counts)
-    row = (np.repeat((win_rows + skip)[order], counts) + np.arange(len(seg))
-           - np.repeat(own[order] - pad, counts))
-    if len(seg) == 0:
-        seg, row = np.zeros(1, np.int64), win_rows[:1]
-    seg = np.concatenate([np.repeat(seg[:1], pad), seg, np.repeat(seg[-1:], n_list - pad - len(seg))])
-    row = np.concatenate([np.repeat(row[:1], pad), row, np.repeat(row[-1:], n_list - pad - len(row))])
-    return RowList(seg.astype(np.int32), row.astype(np.int32), (own - skip).astype(np.int32),
-                   skip.astype(np.int32), count.astype(np.int32))
+    from row ``skip[s]`` of its window (S,), laid out by :func:`_list_layout` in ``n_list``
+    entries, ``list_need(skip, count, n_win) <= n_list``; the entries no capsule owns are copies
+    of a listed one (solved, never counted)."""
+    own, _ = _list_layout(skip, count, n_win)
+    step = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)  # 0.. per capsule
+    at = np.repeat(own, count) + step
+    seg_own = np.repeat(np.arange(len(count)), count)
+    row_own = np.repeat(win_rows + skip, count) + step
+    seg = np.full(n_list, seg_own[0] if len(at) else 0, np.int32)
+    row = np.full(n_list, row_own[0] if len(at) else win_rows[0], np.int32)
+    seg[at], row[at] = seg_own, row_own
+    return RowList(seg, row, (own - skip).astype(np.int32), skip.astype(np.int32),
+                   count.astype(np.int32))
 
 
 def list_need(skip: np.ndarray, count: np.ndarray, n_win: int) -> int:
     """Entries :func:`row_list` needs for these capsules and windows of ``n_win`` rows."""
-    return _list_layout(skip, count, n_win)[3]
+    return _list_layout(skip, count, n_win)[1]
 
 
 def _round_up(n: int, step: int, cap: int) -> int:
     return min(cap, -(-max(n, 1) // step) * step)
 
 
-def chunk_cost(calls, chunk: int) -> int:
-    """Modelled cost of a frame's measure calls (particle counts) in chunks of ``chunk``: every
-    chunk is scored whole (a partial one is padded) and pays :data:`CALL_OVERHEAD`."""
-    blocks = sum(-(-int(n) // chunk) for n in calls)
-    return blocks * (chunk + CALL_OVERHEAD)
+class Chunking(NamedTuple):
+    """How a scorer cuts a call: chunks of ``chunk`` particles, ``block`` chunks per compiled call
+    (a power of two); a call's chunks beyond its whole blocks go one per call."""
+
+    chunk: int
+    block: int = 1
 
 
-def pick_chunk(calls, limit: int = DEFAULT_CHUNK, *, step: int = 8, lowest: int = 64,
-               gain: float = 0.1) -> int:
-    """The chunk for a filter whose frame makes measure calls of ``calls`` particles each:
-    ``limit`` unless a multiple of ``step`` in ``lowest..limit`` cuts :func:`chunk_cost` by at
-    least ``gain`` (IPF's one call of 6561 keeps 512; the factored filter's 648-, 216- and
-    72-particle calls get 216 instead of being padded to 512s). Counts never depend on it."""
+def call_blocks(n: int, chunking: Chunking) -> list[int]:
+    """The chunks of each compiled call for a call of ``n`` particles."""
+    chunks = -(-int(n) // chunking.chunk)
+    whole = chunks // chunking.block if chunking.block > 1 else 0
+    return [chunking.block] * whole + [1] * (chunks - whole * chunking.block)
+
+
+def chunk_cost(calls, chunking: Chunking) -> int:
+    """Modelled cost of a frame's measure calls (particle counts), in particles' worth: every
+    chunk is scored whole (a partial one is padded), each compiled call (:func:`call_blocks`) pays
+    :data:`CALL_OVERHEAD` and each program size used :data:`PROGRAM_COST`."""
+    blocks = [call_blocks(n, chunking) for n in calls]
+    padded = sum(sum(b) for b in blocks) * chunking.chunk
+    sizes = {k for b in blocks for k in b}
+    return padded + CALL_OVERHEAD * sum(len(b) for b in blocks) + PROGRAM_COST * len(sizes)
+
+
+def pick_chunking(calls, limit: int = DEFAULT_CHUNK, *, chunk: int | None = None, step: int = 8,
+                  lowest: int = 64, gain: float = 0.1) -> Chunking:
+    """The :class:`Chunking` for a filter whose frame makes measure calls of ``calls`` particles
+    each: chunks of ``limit``, one per call, unless a chunk that is a multiple of ``step`` in
+    ``lowest..limit`` and a block of 1..:data:`MAX_CALL_CHUNKS` chunks cut :func:`chunk_cost` by
+    at least ``gain``. IPF's one call of 6561 gets 16 chunks of 416 in one compiled call (the
+    6656 particles 13 chunks of 512 pad); the factored filter's 14 calls of 72-1017 particles
+    chunks of 216. ``chunk`` given (``--chunk``): only the block is chosen. Counts never depend
+    on it."""
     calls = [int(n) for n in calls if int(n) > 0]
-    if not calls or limit <= lowest:
-        return int(limit)
-    base = chunk_cost(calls, limit)
-    best = min(range(lowest, limit + 1, step), key=lambda c: (chunk_cost(calls, c), -c))
-    return int(best) if chunk_cost(calls, best) <= (1.0 - gain) * base else int(limit)
+    blocks = [1 << i for i in range(MAX_CALL_CHUNKS.bit_length())]
+    if chunk is not None:
+        chunks = [int(chunk)]
+    elif not calls or limit <= lowest:
+        return Chunking(int(limit))
+    else:
+        chunks = list(range(lowest, limit + 1, step))
+    base = Chunking(chunks[0] if chunk is not None else int(limit))
+    if not calls:
+        return base
+    best = min((Chunking(c, b) for c in chunks for b in blocks),
+               key=lambda k: (chunk_cost(calls, k), -k.chunk, k.block))
+    return best if chunk_cost(calls, best) <= (1.0 - gain) * chunk_cost(calls, base) else base
 
 
 @functools.lru_cache(maxsize=None)
@@ -355,14 +445,20 @@ class Scorer:
 
     cameras : cameras at scoring resolution (C of them).  shape : BodyShape.
     up : (3, 3) canonical-to-world rotation.  kernel : "scanline" or "dense".
-    chunk : particles per compiled call (static; rounded up to a multiple of the device count).
+    chunk : particles per chunk (static; rounded up to a multiple of the device count).
+    block : chunks per compiled call (a power of two; a call's chunks beyond its whole blocks go
+        one per call). :func:`pick_chunking` chooses both from a filter's calls.
     devices : devices to shard each chunk's particle axis over (default: all local devices).
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
-                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, devices=None):
+                 kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, block: int = 1,
+                 devices=None):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
+        require(1 <= block <= MAX_CALL_CHUNKS and block & (block - 1) == 0,
+                f"block must be a power of two up to {MAX_CALL_CHUNKS} (got {block})")
+        self.block = int(block)
         self.cameras = list(cameras)
         self.cams = stack_cameras(self.cameras)
         self.set_shape(shape)
@@ -381,7 +477,8 @@ class Scorer:
         self._small: list[int] = []  # :meth:`set_small_chunks`
         # one device: plain arrays; several: the particle axis is split across them (GSPMD)
         mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
-        self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec("particles"))
+        # blocks are (K, B, ...): K chunks of B particles, B split
+        self._split = None if mesh is None else NamedSharding(mesh, PartitionSpec(None, "particles"))
         self._whole = None if mesh is None else NamedSharding(mesh, PartitionSpec())
         self.sizes: list[Sizes] = []  # per camera, set by :meth:`plan`
         self._need: np.ndarray | None = None  # (C, 4) largest sizes asked since :meth:`new_frame`
@@ -409,36 +506,53 @@ class Scorer:
         compass step's 4 poses are not scored as 512)."""
         return next((b for b in self._small if left <= b), self.chunk)
 
-    def _chunks(self, particles: np.ndarray):
-        n = len(particles)
-        start = 0
+    def _blocks(self, n: int) -> list[tuple[int, int, int, int]]:
+        """How a call of ``n`` particles is cut: (start, taken, K, B) per compiled call, K chunks
+        of B particles each: whole blocks of :attr:`block` chunks, then one chunk per call, the
+        last chunk padded. With small chunks (:meth:`set_small_chunks`) the call's last
+        particles get a call of their own."""
+        out, start = [], 0
         while start < n:
-            b = self.block_size(n - start)
-            block = particles[start:start + b]
-            if len(block) < b:  # pad with copies of a real particle: extents stay the same
-                block = np.concatenate([block, np.repeat(block[:1], b - len(block), axis=0)])
-            yield start, block.astype(np.float32)
-            start += b
+            left = n - start
+            b = self.block_size(left)
+            chunks = left // b if self._small else -(-left // b)
+            k = self.block if chunks >= self.block else 1
+            take = min(left, k * b)
+            out.append((start, take, k, b))
+            start += take
+        return out
+
+    @staticmethod
+    def _block(x: np.ndarray, start: int, take: int, k: int, b: int, dtype=np.float32) -> np.ndarray:
+        """Rows ``start .. start + take`` of ``x`` as a (K, B, ...) block, padded with copies of
+        its first row (a real particle: the extents stay the same)."""
+        block = x[start:start + take]
+        if take < k * b:
+            block = np.concatenate([block, np.repeat(block[:1], k * b - take, axis=0)])
+        return block.astype(dtype).reshape(k, b, *x.shape[1:])
 
     # -- stage 1 and the window plan -------------------------------------------------------------
     def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None,
                  kernel: str | None = None):
-        """Stage 1 for every chunk: per-camera records for ``kernel``'s stage 2 (default the
-        scorer's; kept on device) and the (C, S, 4) int64 extent of every capsule over all
-        particles. ``shapes`` (N, P): a body per particle (default: :attr:`shape` for all)."""
-        caps, exts = [], []
-        bodies = (self._chunks(shapes) if shapes is not None
-                  else itertools.repeat((0, self.shape_values)))
+        """Stage 1 for every block of :meth:`_blocks`: per block, the per-camera records for
+        ``kernel``'s stage 2 (default the scorer's; leading axis K; kept on device), and the
+        (C, S, 4) int64 extent of every capsule over all particles. ``shapes`` (N, P): a body per
+        particle (default: :attr:`shape` for all)."""
+        particles = np.asarray(particles)
         scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
-        for (_, block), (_, body) in zip(self._chunks(particles), bodies):
-            c, ext = _geometry_jit(self._put(block, True), self._put(body, body.ndim == 2), self.up,
-                                   self.cams, long_side=self.long_side, scan_q=scan_q)
-            caps.append(c)
+        recs, exts = [], []
+        for start, take, k, b in self._blocks(len(particles)):
+            block = self._put(self._block(particles, start, take, k, b), True)
+            body = (self._put(self.shape_values) if shapes is None
+                    else self._put(self._block(shapes, start, take, k, b), True))
+            rec, ext = _geometry_calls_jit(block, body, self.up, self.cams,
+                                           long_side=self.long_side, scan_q=scan_q)
+            recs.append(rec)
             exts.append(ext)
         ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
         union = np.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
                           ext[..., 3].max(0)], -1)
-        return caps, union
+        return recs, union
 
     def plan(self, ext: np.ndarray, full: bool = False) -> Windows:
         """Windows for capsule extents (C, S, 4); grows :attr:`sizes` (one per camera) when they
@@ -530,12 +644,14 @@ class Scorer:
         caps, ext = self.geometry(particles, kernel="scanline")
         dense_caps, _ = self.geometry(particles, kernel="dense")
         win = self.plan(ext)
-        block = next(self._chunks(np.asarray(particles)))[1]
+        start, take, k, b = self._blocks(len(particles))[0]
+        block = self._put(self._block(np.asarray(particles), start, take, k, b), True)[0]
         out = {"geometry (all cameras)": lambda: _geometry_jit(
-            self._put(block, True), self.shape_values, self.up, self.cams, long_side=self.long_side,
+            block, self.shape_values, self.up, self.cams, long_side=self.long_side,
             scan_q=self.q)}
         for c in range(len(self.cameras)):
-            rc, cap = caps[0][c], dense_caps[0][c]
+            # the first chunk's records (the K axis of the first block dropped)
+            rc, cap = jax.tree.map(lambda a: a[0], (caps[0][c], dense_caps[0][c]))
             h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
 
             def intervals(rc=rc, c=c, h=h, w=w):
@@ -572,36 +688,26 @@ class Scorer:
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        caps, ext = self.geometry(particles, shapes)
+        recs, ext = self.geometry(particles, shapes)
         win = self.plan(ext, full=full_roi)
-        sil = [self._put(obs.words[c]) for c in range(len(self.cameras))]
-        rows = [RowList(*(self._put(a) for a in r)) for r in win.rows]  # sent once, not per chunk
+        dense = self.kernel == "dense"
+        per_cam = [(RowList(*(self._put(a) for a in win.rows[c])), self._put(obs.words[c]),
+                    win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c], self.heights[c],
+                    self.widths[c], tuple(self.sizes[c][:4])) for c in range(len(self.cameras))]
         pending = []
-        for (start, _), chunk_caps in zip(self._chunks(particles), caps):
-            per_cam = []
-            for c, cap in enumerate(chunk_caps):
-                h, w, sz = self.heights[c], self.widths[c], self.sizes[c]
-                if self.kernel == "scanline":
-                    packed = _intervals_jit(cap, rows[c], h, w, q=self.q)
-                else:
-                    packed = _dense_jit(cap, rows[c], win.win_rows[c], win.win_words[c], h, w,
-                                        n_win=sz.win_rows, n_win_words=sz.win_words, q=self.q,
-                                        long_side=self.long_side)
-                per_cam.append(_words_jit(packed, rows[c], sil[c], win.row0[c], win.word0[c],
-                                          win.win_rows[c], win.win_words[c], n_win=sz.win_rows,
-                                          n_win_words=sz.win_words, n_rows=sz.rows,
-                                          n_words=sz.words))
-            pending.append((start, per_cam))
-        # the device buffers are released here, each chunk's as soon as it is read (dropped by
+        for (start, take, _, _), rec in zip(self._blocks(len(particles)), recs):
+            pending.append((start, take, [
+                _counts_jit(rec[c], *args, q=self.q, long_side=self.long_side, sizes=sizes,
+                            dense=dense) for c, (*args, sizes) in enumerate(per_cam)]))
+        # the device buffers are released here, each block's as soon as it is read (dropped by
         # the caller they cost it ~1 ms a frame, a part of this step that looked like its own)
-        del caps, rows, sil
+        del recs, per_cam
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
         pending.reverse()
         while pending:  # everything is dispatched before the first result is read
-            start, per_cam = pending.pop()
-            take = min(self.chunk, len(particles) - start)  # a small last block holds them all
-            out[start:start + take] = np.stack([np.asarray(r) for r in per_cam], 1)[:take]
-            del per_cam
+            start, take, res = pending.pop()
+            out[start:start + take] = np.stack([np.asarray(r).reshape(-1, 2)[:take] for r in res], 1)
+            del res
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
         return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)

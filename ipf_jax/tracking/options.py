@@ -211,9 +211,9 @@ OPTIONS: tuple[Option, ...] = (
     # -- the computation
     Option("seed", "--seed", "int", 0, "random seed: the same seed gives the same files (default 0)",
            check=_seed),
-    Option("chunk", "--chunk", "int", None, "particles per compiled call: memory vs speed, never the "
-           f"result (default {DEFAULT_CHUNK}, or fewer where the filter's calls fit them better: "
-           "the factored filter's 216)", check=_at_least(1)),
+    Option("chunk", "--chunk", "int", None, "particles per chunk of a compiled call: memory vs speed, "
+           f"never the result (default {DEFAULT_CHUNK}, or what the filter's calls fit better: IPF's "
+           "416, 16 to a call; the factored filter's 216)", check=_at_least(1)),
     Option("kernel", "--kernel", "choice", "scanline", "raster kernel: scanline (default) or dense; "
            "both give the same pixel counts", choices=KERNELS),
     Option("checkpoint_every", "--checkpoint-every", "int", 10, "write a checkpoint (and run.json) "

@@ -64,7 +64,7 @@ from ..likelihood.scorer import (
     Observation,
     Scorer,
     make_observation,
-    pick_chunk,
+    pick_chunking,
     scoring_cameras,
     weights_from_counts,
 )
@@ -238,8 +238,10 @@ class Tracker:
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self._filters: dict[int, Filter] = {}
         self._ahead: tuple[int, jax.Array, object] | None = None  # see draw_ahead
-        chunk = settings.chunk or pick_chunk(self.filter.calls)  # padding vs calls: docs/benchmarks.md
-        self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel, chunk=chunk)
+        # padding against calls and programs: docs/benchmarks.md
+        chunk, block = pick_chunking(self.filter.calls, chunk=settings.chunk)
+        self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
+                             chunk=chunk, block=block)
         self.key = jax.random.PRNGKey(settings.seed)
 
     def measure_height(self) -> dict:
@@ -740,6 +742,7 @@ class Tracker:
             if per_frame and all("mask_quality" in r for r in per_frame) else None,
             "evaluations_per_frame": f.evaluations_per_frame,
             "chunk": self.scorer.chunk,
+            "chunks_per_call": self.scorer.block,
             "init_evaluations": state.init_evaluations,
             "reinitialisations": list(state.reinits),
             "recovery": recovery_summary(state.recoveries),
