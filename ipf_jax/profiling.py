@@ -92,7 +92,12 @@ def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=
     """The full measure step of a backend: (N, D) particles -> (N,) weights. The JAX scorer's
     chunking is the tracker's for measure calls of ``calls`` particles (default: one call of the
     scene's particles; ``chunk`` given: only the chunks per compiled call are chosen)."""
-    from .likelihood.scorer import Scorer, make_observation, pick_chunking, weights_from_counts
+    from .likelihood.scorer import (
+        Scorer,
+        make_observation,
+        pick_chunking,
+        weights_from_counts,
+    )
 
     obs = make_observation(scene.masks)
     if backend.startswith("jax-"):

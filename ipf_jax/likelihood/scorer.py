@@ -103,9 +103,10 @@ MAX_CALL_CHUNKS = 16
 #: uses, in particles' worth per frame: every such size is one more program per window size,
 #: traced and loaded when the sizes change, and the geometry's takes ~0.25 s to load, ~2.5 s to
 #: compile (IPF, one camera, 40 frames: calls of 8, 4 and 1 chunks, 19 programs against 7, 0.9 s
-#: more per run, about 2000 particles' worth a frame). Counted as a quarter of that: longer runs
-#: pay it less, and padding is paid on every frame.
-PROGRAM_COST = 512
+#: more per run, about 2000 particles' worth a frame). Counted as half of that: longer runs pay
+#: it less, padding is paid on every frame. (At 512 the factored filter got blocks of 2, and its
+#: 20-frame runs on 4 cameras took 0.82x the time of one chunk per call: docs/benchmarks.md.)
+PROGRAM_COST = 1024
 #: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
 #: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
 SHRINK_FRAMES = 8
