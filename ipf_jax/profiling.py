@@ -104,7 +104,11 @@ def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=
         chunk, block = pick_chunking(calls or [len(scene.particles)], chunk=chunk)
         scorer = Scorer(scene.cameras, scene.shape, scene.up, kernel=backend[4:], chunk=chunk,
                         block=block)
-        return lambda p: weights_from_counts(scorer.counts(p, obs), obs.active)[0]
+
+        def step(p):
+            return weights_from_counts(scorer.counts(p, obs), obs.active)[0]
+        step.chunking = (scorer.chunk, scorer.block)  # as the scorer has it (device rounding)
+        return step
     if backend == "numpy-scanline":
         from .reference import scanline as ref
     else:
@@ -183,8 +187,6 @@ def _common() -> dict:
 def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
                   budget_s: float = 60.0, chunk: int | None = None) -> tuple[dict, np.ndarray]:
     """Time the measure step of ``backend`` on the first ``n`` poses -> (record, weights)."""
-    from .likelihood.scorer import pick_chunking
-
     exact_peak = _reset_peak()
     particles = scene.particles[:n]
     fn = measure_step(backend, scene, chunk=chunk, calls=[n])
@@ -202,8 +204,7 @@ def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
     h, w = scene.masks[0].shape
     rec = {"backend": backend, "height": h, "width": w, "cameras": len(scene.cameras),
            "particles": n, "particles_per_s": round(n / med, 1),
-           "chunking": (list(pick_chunking([n], chunk=chunk)) if backend.startswith("jax-")
-                        else None),
+           "chunking": list(getattr(fn, "chunking", ())) or None,
            "compile_s": round(max(first - med, 0.0), 3) if backend.startswith("jax-") else None,
            "peak_rss_mb": round(_peak_mb(), 1), **_common(),
            "task": "measure", "seconds": round(med, 5), "repeats": len(times),

@@ -182,6 +182,13 @@ def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
     return jnp.stack(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1), axis=1)
 
 
+def box_union(xp, ext, axis: int):
+    """(..., 4) extents (row_min, row_max, col_min, col_max) -> the box holding all of them along
+    ``axis`` (JAX in the compiled stages, NumPy on the host)."""
+    return xp.stack([ext[..., 0].min(axis), ext[..., 1].max(axis), ext[..., 2].min(axis),
+                     ext[..., 3].max(axis)], -1)
+
+
 # -- the compiled stages (B particles; batched here, once) --------------------------------------
 def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     """Stage 1: (B, D) particles -> C records, one per camera, and (C, S, 4) float32 extents of
@@ -198,8 +205,7 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))  # (C, 15, S, B)
     by_seg = jnp.moveaxis(caps, 1, -1)  # (C, S, B, 15)
     ext = segment_extent(jnp, by_seg, long_side)  # (C, S, B, 4)
-    union = jnp.stack([ext[..., 0].min(2), ext[..., 1].max(2), ext[..., 2].min(2),
-                       ext[..., 3].max(2)], -1)
+    union = box_union(jnp, ext, 2)
     if not scan_q:
         return tuple(caps[c] for c in range(caps.shape[0])), union
     rc = row_coeffs(jnp, quantize(jnp, by_seg, scan_q, long_side), scan_q)  # batch (C, S, B)
@@ -246,12 +252,6 @@ for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple argumen
     register_namedtuple(_t)
 
 
-def _reduce_extents(ext):
-    """(K, ..., 4) extents -> (..., 4): the box holding all K."""
-    return jnp.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
-                      ext[..., 3].max(0)], -1)
-
-
 def _geometry_calls_impl(q, shape_values, up, cams, long_side, scan_q):
     """Stage 1 for K chunks in one program: (K, B, D) particles -> per camera the records of
     :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
@@ -263,7 +263,7 @@ def _geometry_calls_impl(q, shape_values, up, cams, long_side, scan_q):
     else:
         recs, ext = jax.lax.map(lambda a: _geometry_impl(a[0], a[1], up, cams, long_side, scan_q),
                                 (q, shape_values))
-    return recs, _reduce_extents(ext)
+    return recs, box_union(jnp, ext, 0)
 
 
 def _counts_impl(recs, rows, sil_words, row0, word0, win_rows, win_words, height, width, q,
@@ -551,8 +551,7 @@ class Scorer:
             recs.append(rec)
             exts.append(ext)
         ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
-        union = np.stack([ext[..., 0].min(0), ext[..., 1].max(0), ext[..., 2].min(0),
-                          ext[..., 3].max(0)], -1)
+        union = box_union(np, ext, 0)
         return recs, union
 
     def plan(self, ext: np.ndarray, full: bool = False) -> Windows:
