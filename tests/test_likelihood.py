@@ -77,6 +77,24 @@ def test_chunking_and_roi_do_not_change_counts(scene):
     assert small._blocks(40) == [(0, 32, 1, 32), (32, 8, 1, 8)]
 
 
+def test_a_padded_call_runs_its_last_chunks_in_one_more_block(scene):
+    """``counts(pad=True)``: the chunks after a call's whole blocks run in one more block (the
+    block's program) instead of one chunk per call; counts equal."""
+    cams, q, masks, particles = scene
+    obs = make_observation(list(masks[3]))
+    want = Scorer(cams, SHAPE, U, chunk=7).counts(particles, obs)
+    s = Scorer(cams, SHAPE, U, chunk=7, block=4)
+    assert s._blocks(40) == [(0, 28, 4, 7), (28, 7, 1, 7), (35, 5, 1, 7)]  # one chunk per call
+    assert s._blocks(40, pad=True) == [(0, 28, 4, 7), (28, 12, 4, 7)]  # 6 chunks, 2 of padding
+    assert s._blocks(1, pad=True) == [(0, 1, 4, 7)]  # a start pose
+    np.testing.assert_array_equal(s.counts(particles, obs, pad=True), want)
+    np.testing.assert_array_equal(s.counts(particles[:1], obs, pad=True), want[:1])
+    small = Scorer(cams, SHAPE, U, chunk=32)
+    small.set_small_chunks((8,))  # small chunks are the shape fit's: not padded
+    assert small._blocks(40, pad=False) == [(0, 32, 1, 32), (32, 8, 1, 8)]
+    np.testing.assert_array_equal(small.counts(particles, obs, pad=True), want)
+
+
 def test_reset_windows_sizes_them_to_the_next_call(scene):
     """After a wide search the tracker forgets its window sizes: the next call's own need sets
     them (smaller than the wide cloud's), and the counts are those of the whole image."""
@@ -181,19 +199,25 @@ def test_no_retrace_across_frames(scene):
         return traced
 
     try:
-        for name, (impl, static) in stages.items():
-            setattr(likelihood, name, jax.jit(counted(impl), static_argnames=static))
-        scorer = Scorer(cams, SHAPE, U, chunk=16, block=2)
-        scorer.counts(particles, make_observation(list(masks[0])))  # warm-up fixes the window sizes
-        first = dict(traces)
-        # 40 particles in chunks of 16: a call of 2 chunks and one of 1 (K = 2 and 1); the
-        # counts' also per camera when the two cameras' window sizes differ
-        assert first["_geometry_calls_impl"] == 2 and first["_counts_impl"] in (2, 3, 4)
-        rng = np.random.default_rng(1)
-        for i in range(1, 6):  # new masks and a moving cloud, as in tracking
-            moved = particles + rng.normal(0, 0.003, size=particles.shape)
-            scorer.counts(moved, make_observation(list(masks[i])))
-        assert dict(traces) == first
+        for pad in (False, True):
+            traces.clear()
+            for name, (impl, static) in stages.items():
+                setattr(likelihood, name, jax.jit(counted(impl), static_argnames=static))
+            scorer = Scorer(cams, SHAPE, U, chunk=16, block=2)
+            obs = make_observation(list(masks[0]))
+            scorer.counts(particles, obs, pad=pad)  # warm-up: window sizes
+            first = dict(traces)
+            # 40 particles in chunks of 16: a call of 2 chunks and one of 1 (K = 2 and 1), or
+            # padded two calls of 2; the counts' also per camera when the two cameras' window
+            # sizes differ
+            programs = 1 if pad else 2
+            assert first["_geometry_calls_impl"] == programs
+            assert programs <= first["_counts_impl"] <= 2 * programs
+            rng = np.random.default_rng(1)
+            for i in range(1, 6):  # new masks and a moving cloud, as in tracking
+                moved = particles + rng.normal(0, 0.003, size=particles.shape)
+                scorer.counts(moved, make_observation(list(masks[i])), pad=pad)
+            assert dict(traces) == first
     finally:
         for name, fn in saved.items():
             setattr(likelihood, name, fn)

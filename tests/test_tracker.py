@@ -348,3 +348,34 @@ def test_the_shape_fit_scores_carry_the_prior(scene):
     np.testing.assert_allclose(shape_measure(tr.scorer, obs, prior)(particles, bodies),
                                plain * prior(particles, bodies), rtol=1e-12)
     assert np.all(plain > 0)
+
+
+def test_a_start_pose_is_scored_in_a_block_as_the_frames_are(scene, tmp_path, monkeypatch):
+    """Given a start pose, its one-pose call runs padded on the block program the filter's calls
+    use (no program of one chunk loaded for it alone); the files are those of an unpadded run."""
+    from ipf_jax.likelihood import scorer as likelihood
+    from ipf_jax.tracking.tracker import Tracker
+
+    cams, q, masks = scene
+    ds = MemoryDataset(cams, masks[:3], fps=20.0)
+    settings = SETTINGS._replace(init_pose=q[0], height_m=1.75, chunk=64)
+    blocks = []
+    program = likelihood._geometry_calls_jit
+
+    def geometry(block, *args, **static):
+        blocks.append(block.shape[0])
+        return program(block, *args, **static)
+
+    monkeypatch.setattr(likelihood, "_geometry_calls_jit", geometry)
+    padded = Tracker(ds, settings)
+    assert padded.scorer.block > 1  # IPF's 324 particles a frame in chunks of 64: in blocks
+    padded.run(tmp_path / "padded", progress=False)
+    assert blocks[0] == padded.scorer.block  # the start pose: one block, padded
+    blocks.clear()
+    plain = Tracker(ds, settings)
+    plain.measure = lambda obs, shape=None, log=None, pad=False: Tracker.measure(plain, obs, shape,
+                                                                                   log)  # no padding
+    plain.run(tmp_path / "plain", progress=False)
+    assert blocks[0] == 1  # unpadded: a program of one chunk
+    for file in ("joints.csv", "poses.csv"):
+        assert (tmp_path / "padded" / file).read_bytes() == (tmp_path / "plain" / file).read_bytes()

@@ -373,7 +373,8 @@ def _round_up(n: int, step: int, cap: int) -> int:
 
 class Chunking(NamedTuple):
     """How a scorer cuts a call: chunks of ``chunk`` particles, ``block`` chunks per compiled call
-    (a power of two); a call's chunks beyond its whole blocks go one per call."""
+    (a power of two); a call's chunks beyond its whole blocks go one per call (or, asked, in one
+    more block, padded: :meth:`Scorer.counts`)."""
 
     chunk: int
     block: int = 1
@@ -507,17 +508,17 @@ class Scorer:
         compass step's 4 poses are not scored as 512)."""
         return next((b for b in self._small if left <= b), self.chunk)
 
-    def _blocks(self, n: int) -> list[tuple[int, int, int, int]]:
+    def _blocks(self, n: int, pad: bool = False) -> list[tuple[int, int, int, int]]:
         """How a call of ``n`` particles is cut: (start, taken, K, B) per compiled call, K chunks
-        of B particles each: whole blocks of :attr:`block` chunks, then one chunk per call, the
-        last chunk padded. With small chunks (:meth:`set_small_chunks`) the call's last
-        particles get a call of their own."""
+        of B particles each: whole blocks of :attr:`block` chunks, then one chunk per call (with
+        ``pad``: one more block, padded), the last chunk padded. With small chunks
+        (:meth:`set_small_chunks`) the call's last particles get a call of their own."""
         out, start = [], 0
         while start < n:
             left = n - start
             b = self.block_size(left)
             chunks = left // b if self._small else -(-left // b)
-            k = self.block if chunks >= self.block else 1
+            k = self.block if chunks >= self.block or pad else 1
             take = min(left, k * b)
             out.append((start, take, k, b))
             start += take
@@ -534,15 +535,15 @@ class Scorer:
 
     # -- stage 1 and the window plan -------------------------------------------------------------
     def geometry(self, particles: np.ndarray, shapes: np.ndarray | None = None,
-                 kernel: str | None = None):
-        """Stage 1 for every block of :meth:`_blocks`: per block, the per-camera records for
-        ``kernel``'s stage 2 (default the scorer's; leading axis K; kept on device), and the
-        (C, S, 4) int64 extent of every capsule over all particles. ``shapes`` (N, P): a body per
-        particle (default: :attr:`shape` for all)."""
+                 kernel: str | None = None, cuts: list | None = None):
+        """Stage 1 for every block of ``cuts`` (default :meth:`_blocks`): per block, the
+        per-camera records for ``kernel``'s stage 2 (default the scorer's; leading axis K; kept
+        on device), and the (C, S, 4) int64 extent of every capsule over all particles.
+        ``shapes`` (N, P): a body per particle (default: :attr:`shape` for all)."""
         particles = np.asarray(particles)
         scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
         recs, exts = [], []
-        for start, take, k, b in self._blocks(len(particles)):
+        for start, take, k, b in cuts or self._blocks(len(particles)):
             block = self._put(self._block(particles, start, take, k, b), True)
             body = (self._put(self.shape_values) if shapes is None
                     else self._put(self._block(shapes, start, take, k, b), True))
@@ -670,11 +671,16 @@ class Scorer:
 
     # -- scoring ---------------------------------------------------------------------------------
     def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False,
-               shapes: np.ndarray | None = None) -> np.ndarray:
+               shapes: np.ndarray | None = None, pad: bool = False) -> np.ndarray:
         """(N, C, 3) int64 counts (Nc, Ns, Nm) for (N, D) particles.
 
         shapes : optional (N, P) shape values, one body per particle (the shape candidates of
         :mod:`ipf_jax.tracking.shape_fit`); default: every particle has :attr:`shape`.
+        pad : the chunks left after the call's whole blocks run in one more block, padded, on
+            the program of a block instead of one chunk per call: for a few particles scored
+            once where the filter's calls use whole blocks (a run's start pose: IPF's one pose
+            in 16 x 416 instead of a program of one chunk to load, 0.3-0.5 s, only for it;
+            docs/benchmarks.md). Counts never depend on it.
         """
         particles = np.asarray(particles)
         require(particles.ndim == 2 and particles.shape[0] > 0, "particles must be a non-empty (N, D) array")
@@ -688,14 +694,15 @@ class Scorer:
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        recs, ext = self.geometry(particles, shapes)
+        cuts = self._blocks(len(particles), pad=pad and not self._small)
+        recs, ext = self.geometry(particles, shapes, cuts=cuts)
         win = self.plan(ext, full=full_roi)
         dense = self.kernel == "dense"
         per_cam = [(RowList(*(self._put(a) for a in win.rows[c])), self._put(obs.words[c]),
                     win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c], self.heights[c],
                     self.widths[c], tuple(self.sizes[c][:4])) for c in range(len(self.cameras))]
         pending = []
-        for (start, take, _, _), rec in zip(self._blocks(len(particles)), recs):
+        for (start, take, _, _), rec in zip(cuts, recs):
             pending.append((start, take, [
                 _counts_jit(rec[c], *args, q=self.q, long_side=self.long_side, sizes=sizes,
                             dense=dense) for c, (*args, sizes) in enumerate(per_cam)]))

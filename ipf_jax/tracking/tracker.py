@@ -327,17 +327,18 @@ class Tracker:
         centre = self.cameras[0].centre
         return lambda particles, values: upright_to_camera(particles, values, self.U, centre, sigma)
 
-    def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None):
+    def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None,
+                pad: bool = False):
         """``fn(particles, shape=None) -> weights`` on ``obs`` (times the priors, :mod:`.prior`);
         with ``log`` every call's particles and counts are appended to it (the loss test reads the
-        estimate's there)."""
+        estimate's there); ``pad``: see :meth:`~ipf_jax.likelihood.scorer.Scorer.counts`."""
         lean = self.lean_prior
 
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
             s = shp or shape
             if s is not None and s is not self.scorer.shape:
                 self.scorer.set_shape(s)
-            counts = self.scorer.counts(particles, obs)
+            counts = self.scorer.counts(particles, obs, pad=pad)
             if log is not None:
                 log.append((np.asarray(particles), counts))
             w = weights_from_counts(counts, obs.active)[0]
@@ -399,7 +400,8 @@ class Tracker:
         if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
-            w = self.measure(obs, shape, log)(q)
+            # one pose, in a block as the filter's calls run (no program loaded for it alone)
+            w = self.measure(obs, shape, log, pad=True)(q)
             return q, w, shape, 1
         if shape is None and s.shape_file is not None:  # a shape file fixes the body
             shape = self.base_shape
