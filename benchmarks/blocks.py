@@ -52,8 +52,8 @@ def main(argv=None) -> int:
     calls = []
     measure = tracker.measure
 
-    def recording(obs, shape=None, log=None):
-        fn = measure(obs, shape, log)
+    def recording(obs, shape=None, log=None, pad=False):
+        fn = measure(obs, shape, log, pad)
 
         def score(particles, *rest):
             calls.append((particles.copy(), obs))
