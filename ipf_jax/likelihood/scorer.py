@@ -380,11 +380,13 @@ class Chunking(NamedTuple):
     block: int = 1
 
 
-def call_blocks(n: int, chunking: Chunking) -> list[int]:
-    """The chunks of each compiled call for a call of ``n`` particles."""
+def call_blocks(n: int, chunking: Chunking, pad: bool = False) -> list[int]:
+    """The chunks of each compiled call for a call of ``n`` particles: whole blocks, then one
+    chunk per call (``pad``: one more block). The scorer cuts its calls by it
+    (:meth:`Scorer._blocks`) and :func:`chunk_cost` models them by it."""
     chunks = -(-int(n) // chunking.chunk)
-    whole = chunks // chunking.block if chunking.block > 1 else 0
-    return [chunking.block] * whole + [1] * (chunks - whole * chunking.block)
+    whole, rest = divmod(chunks, chunking.block)
+    return [chunking.block] * whole + ([chunking.block] if pad and rest else [1] * rest)
 
 
 def chunk_cost(calls, chunking: Chunking) -> int:
@@ -510,15 +512,19 @@ class Scorer:
 
     def _blocks(self, n: int, pad: bool = False) -> list[tuple[int, int, int, int]]:
         """How a call of ``n`` particles is cut: (start, taken, K, B) per compiled call, K chunks
-        of B particles each: whole blocks of :attr:`block` chunks, then one chunk per call (with
-        ``pad``: one more block, padded), the last chunk padded. With small chunks
-        (:meth:`set_small_chunks`) the call's last particles get a call of their own."""
+        of B particles each, as :func:`call_blocks` cuts it (the last chunk padded). With small
+        chunks (:meth:`set_small_chunks`) the call's last particles get a call of their own instead
+        (``pad`` is then not used)."""
         out, start = [], 0
-        while start < n:
+        if not self._small:
+            for k in call_blocks(n, Chunking(self.chunk, self.block), pad):
+                out.append((start, min(n - start, k * self.chunk), k, self.chunk))
+                start += k * self.chunk
+            return out
+        while start < n:  # whole chunks, then the last few in the smallest call that holds them
             left = n - start
             b = self.block_size(left)
-            chunks = left // b if self._small else -(-left // b)
-            k = self.block if chunks >= self.block or pad else 1
+            k = self.block if left // b >= self.block else 1
             take = min(left, k * b)
             out.append((start, take, k, b))
             start += take
@@ -694,7 +700,7 @@ class Scorer:
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        cuts = self._blocks(len(particles), pad=pad and not self._small)
+        cuts = self._blocks(len(particles), pad=pad)
         recs, ext = self.geometry(particles, shapes, cuts=cuts)
         win = self.plan(ext, full=full_roi)
         dense = self.kernel == "dense"
