@@ -168,3 +168,23 @@ def test_windowed_kernels_are_exact_wherever_the_windows_sit(kernel):
     expected = np.array([counts_from_caps(c, mask) for c in caps])
     np.testing.assert_array_equal(got[:, 0], expected[:, 0])
     np.testing.assert_array_equal(got[:, 1] - got[:, 0], expected[:, 2])
+
+
+def test_row_coeffs_field_by_field_equal_those_of_the_stacks():
+    """The scorer quantises field by field (QuantFields); the stacked QuantCaps of the NumPy side
+    give the same coefficients, in JAX and in NumPy."""
+    from ipf_jax.likelihood.raster import as_fields, quantize, quantize_fields, row_coeffs
+
+    caps = random_caps(np.random.default_rng(7), 6, 120, 160).astype(np.float32)  # (6, 17, 15)
+    q, long_side = quant_scale(120, 160), 160
+    stacked = quantize(np, caps, q, long_side)
+    fields = quantize_fields(np, lambda i: caps[..., i], q, long_side)
+    for a, b in zip(jax.tree.leaves(as_fields(stacked)), jax.tree.leaves(fields)):
+        np.testing.assert_array_equal(a, b)
+    ref = row_coeffs(np, stacked, q)
+    by_fields = jax.jit(lambda c: row_coeffs(jnp, quantize_fields(jnp, lambda i: c[..., i], q,
+                                                                   long_side), q))(caps)
+    leaves = jax.tree.leaves(ref)
+    assert len(leaves) == 28
+    for a, b in zip(leaves, jax.tree.leaves(by_fields)):
+        np.testing.assert_array_equal(a, np.asarray(b))

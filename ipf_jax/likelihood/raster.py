@@ -74,8 +74,25 @@ class QuantCaps(NamedTuple):
     quad_on: jnp.ndarray
 
 
-def quantize(xp, caps: jnp.ndarray, q: int, long_side: int):
-    """(S, 15) float32 capsule records -> :class:`QuantCaps` (shared by JAX and NumPy).
+class QuantFields(NamedTuple):
+    """:class:`QuantCaps` field by field, each an array of the capsules' batch shape.
+
+    disc : 2 x (cx, cy, r);  corners : 4 x (x, y);  drawn, quad_on : bool.
+
+    The JAX stages use this form: XLA's CPU backend materialises stacks with small trailing axes
+    (2, 3) and then runs every loop that reads them on strided elements; the geometry stage's row
+    coefficients took 2.3x longer from the stacks (docs/benchmarks.md).
+    """
+
+    disc: tuple
+    corners: tuple
+    drawn: jnp.ndarray
+    quad_on: jnp.ndarray
+
+
+def quantize_fields(xp, field, q: int, long_side: int) -> QuantFields:
+    """Capsule records -> :class:`QuantFields` (shared by JAX and NumPy); ``field(i)`` returns the
+    records' field ``i`` (0 .. 14) as an array of the batch shape.
 
     Only exact float32 operations (clip, multiply by a power of two, round-half-even) are used
     before the cast, so both array libraries produce identical integers.
@@ -83,22 +100,31 @@ def quantize(xp, caps: jnp.ndarray, q: int, long_side: int):
     lo, hi, r_hi = _guard(long_side)
 
     def coord(i):
-        return xp.round(xp.clip(caps[..., i].astype(xp.float32), lo, hi) * np.float32(q)).astype(xp.int32)
+        return xp.round(xp.clip(field(i).astype(xp.float32), lo, hi) * np.float32(q)).astype(xp.int32)
 
     def radius(i):
-        r = xp.clip(caps[..., i].astype(xp.float32), np.float32(0), r_hi)
+        r = xp.clip(field(i).astype(xp.float32), np.float32(0), r_hi)
         return xp.round(r * np.float32(q)).astype(xp.int32)
 
-    # field by field, stacked last: XLA's CPU loops are slow on small trailing axes, and the
-    # consumers' indexing into these stacks folds away
-    disc = xp.stack([xp.stack([coord(0), coord(1), radius(2)], axis=-1),
-                     xp.stack([coord(3), coord(4), radius(5)], axis=-1)], axis=-2)
-    corners = [(coord(6 + 2 * k), coord(7 + 2 * k)) for k in range(4)]
-    quad = xp.stack([xp.stack(c, axis=-1) for c in corners], axis=-2)
-    flag = caps[..., FLAG].astype(xp.float32)
-    drawn = flag > 0.5
-    quad_on = (flag > 1.5) & _proper_quad(corners)
-    return QuantCaps(disc, quad, drawn, quad_on)
+    disc = ((coord(0), coord(1), radius(2)), (coord(3), coord(4), radius(5)))
+    corners = tuple((coord(6 + 2 * k), coord(7 + 2 * k)) for k in range(4))
+    flag = field(FLAG).astype(xp.float32)
+    return QuantFields(disc, corners, flag > 0.5, (flag > 1.5) & _proper_quad(corners))
+
+
+def quantize(xp, caps: jnp.ndarray, q: int, long_side: int) -> QuantCaps:
+    """(S, 15) float32 capsule records -> :class:`QuantCaps` (:func:`quantize_fields`, stacked)."""
+    qf = quantize_fields(xp, lambda i: caps[..., i], q, long_side)
+    disc = xp.stack([xp.stack(d, axis=-1) for d in qf.disc], axis=-2)
+    quad = xp.stack([xp.stack(c, axis=-1) for c in qf.corners], axis=-2)
+    return QuantCaps(disc, quad, qf.drawn, qf.quad_on)
+
+
+def as_fields(qc: QuantCaps) -> QuantFields:
+    """:class:`QuantCaps` -> :class:`QuantFields` (views of its stacks)."""
+    disc = tuple(tuple(qc.disc[..., k, i] for i in range(3)) for k in range(2))
+    corners = tuple((qc.quad[..., k, 0], qc.quad[..., k, 1]) for k in range(4))
+    return QuantFields(disc, corners, qc.drawn, qc.quad_on)
 
 
 def segment_extent(xp, caps, long_side: int):
@@ -204,16 +230,14 @@ class RowCoeffs(NamedTuple):
     rows: tuple
 
 
-def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
-    """:class:`QuantCaps` (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
-    disc = tuple((qc.disc[..., k, 0], qc.disc[..., k, 1],
-                  xp.where(qc.drawn, qc.disc[..., k, 2] * qc.disc[..., k, 2], -1).astype(xp.int32))
-                 for k in range(2))
+def row_coeffs(xp, qc: QuantFields | QuantCaps, q: int) -> RowCoeffs:
+    """Quantised capsules (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
+    qf = as_fields(qc) if isinstance(qc, QuantCaps) else qc
+    disc = tuple((cx, cy, xp.where(qf.drawn, r * r, -1).astype(xp.int32)) for cx, cy, r in qf.disc)
     edges = []
     for k in range(4):
-        a, b = qc.quad[..., k, :], qc.quad[..., (k + 1) % 4, :]
-        ax, ay = a[..., 0], a[..., 1]
-        ex, ey = b[..., 0] - ax, b[..., 1] - ay
+        (ax, ay), (bx, by) = qf.corners[k], qf.corners[(k + 1) % 4]
+        ex, ey = bx - ax, by - ay
         d = ey * q
         flat = d == 0  # bounds no column: the rows' gate holds it
         hi_add = xp.where(d > 0, np.int32(0), xp.where(flat, np.int32(_FAR // 2), np.int32(_FAR)))
@@ -221,11 +245,11 @@ def row_coeffs(xp, qc: QuantCaps, q: int) -> RowCoeffs:
                       xp.where(flat, 0, ey * ax - ex * ay).astype(xp.int32),
                       xp.where(flat, 1, xp.abs(d)).astype(xp.int32), hi_add))
     inv_d = tuple(np.float32(1.0) / xp.maximum(e[2], 1).astype(xp.float32) for e in edges)
-    ys = [qc.quad[..., k, 1] for k in range(4)]
+    ys = [y for _, y in qf.corners]
     first = xp.minimum(xp.minimum(ys[0], ys[1]), xp.minimum(ys[2], ys[3]))
     last = xp.maximum(xp.maximum(ys[0], ys[1]), xp.maximum(ys[2], ys[3]))
-    rows = (xp.where(qc.quad_on, first, _INT_MAX).astype(xp.int32),
-            xp.where(qc.quad_on, last, 0).astype(xp.int32))
+    rows = (xp.where(qf.quad_on, first, _INT_MAX).astype(xp.int32),
+            xp.where(qf.quad_on, last, 0).astype(xp.int32))
     return RowCoeffs(disc, tuple(edges), inv_d, rows)
 
 
@@ -353,7 +377,7 @@ def list_intervals(rc: RowCoeffs, rows: RowList, q: int, height, width):
 def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, width):
     """Scanline kernel, stage 1, one capsule set: (S, 15) records -> (S, R) packed intervals on
     each capsule's window (:func:`list_intervals` with one particle)."""
-    rc = row_coeffs(jnp, quantize(jnp, caps, q, long_side), q)
+    rc = row_coeffs(jnp, quantize_fields(jnp, lambda i: caps[..., i], q, long_side), q)
     one = jax.tree.map(lambda a: a[..., None], rc)
     return list_intervals(one, window_list(win_rows, n_win), q, height, width).reshape(-1, n_win)
 
