@@ -278,3 +278,29 @@ def test_new_frame_shrinks_windows_after_a_wide_search_and_keeps_counts(scene):
     assert scorer.sizes != big
     got = scorer.counts(narrow, obs)
     np.testing.assert_array_equal(got, Scorer(cams, SHAPE, U, chunk=16).counts(narrow, obs, full_roi=True))
+
+
+def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
+    """The block program runs the forward kinematics and projection on all its chunks at once and
+    the records chunk by chunk: every record and extent equals K one-chunk calls', for one body
+    and for a body per particle (the shape fit's candidates)."""
+    import jax
+
+    from ipf_jax.likelihood import scorer as sc
+
+    cams, q, masks, particles = scene
+    s = Scorer(cams, SHAPE, U, chunk=8)
+    block = particles.reshape(5, 8, -1).astype(np.float32)
+    rng = np.random.default_rng(1)
+    bodies = (np.asarray(SHAPE.values, np.float32) * rng.uniform(0.9, 1.1, (5, 8, len(SHAPE.values)))
+              ).astype(np.float32)
+    for sv in (np.asarray(SHAPE.values, np.float32), bodies):
+        recs, ext = sc._geometry_calls_jit(block, sv, s.up, s.cams, long_side=s.long_side, scan_q=s.q)
+        ones = [sc._geometry_jit(block[k], sv if sv.ndim == 1 else sv[k], s.up, s.cams,
+                                 long_side=s.long_side, scan_q=s.q) for k in range(5)]
+        for k, (rec_k, ext_k) in enumerate(ones):
+            for got, want in zip(jax.tree.leaves(recs), jax.tree.leaves(rec_k)):
+                np.testing.assert_array_equal(np.asarray(got)[k], np.asarray(want))
+        every = np.stack([np.asarray(e) for _, e in ones])
+        np.testing.assert_array_equal(ext, np.stack([every[..., 0].min(0), every[..., 1].max(0),
+                                                     every[..., 2].min(0), every[..., 3].max(0)], -1))

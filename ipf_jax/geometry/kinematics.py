@@ -209,9 +209,10 @@ def particles_as_rows(particles: np.ndarray, shape_values: np.ndarray) -> tuple:
 
 def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -> jnp.ndarray:
     """Batched FK, particle axis last (JAX): (D, B) -> (3, K, B) world centres of the K distinct
-    capsule ends (:data:`CAPSULE_ENDS`; :data:`SEGMENT_ENDS` maps segments onto them).
+    capsule ends (:data:`CAPSULE_ENDS`; :data:`SEGMENT_ENDS` maps segments onto them); particles
+    (D, *lead, B) -> (3, *lead, K, B).
 
-    shape_values : (P,) one body for all, or (P, B) a body per particle.  up : (3, 3).
+    shape_values : (P,) one body for all, or (P, *lead, B) a body per particle.  up : (3, 3).
     The operations on each number are those of :func:`forward_kinematics` (compiled into other
     loops, so a result can differ from it in the last bit).
     """
@@ -231,4 +232,4 @@ def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -
             k += 1
         world[f.name] = jax.lax.optimization_barrier((cols, origin))  # each frame's axes once
     ends = [jnp.stack(_apply(*world[frame], coords, shape_values)) for frame, coords in CAPSULE_ENDS]
-    return jnp.stack(ends, axis=1)  # every end moves with the root: (3, B) each
+    return jnp.stack(ends, axis=-2)  # every end moves with the root: (3, *lead, B) each

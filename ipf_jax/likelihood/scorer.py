@@ -158,20 +158,26 @@ def make_observation(masks: list[np.ndarray]) -> Observation:
     return Observation(words, fg, bbox, sizes)
 
 
-def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
-    """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
-    last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P).
+def projected_ends(q_t, shape_values, up, cams) -> tuple:
+    """Particles (D, *batch), particle axis last -> (u, v, z, mag) of every distinct capsule end
+    (:func:`ipf_jax.geometry.kinematics.capsule_ends`) in every camera, each (*lead, C, E, B)
+    for ``batch = (*lead, B)``. ``shape_values`` (P,) or (P, *batch).
 
-    Each distinct capsule end is placed once (:func:`ipf_jax.geometry.kinematics.capsule_ends`)
-    and projected into all cameras in one step; the intermediate results are materialised
-    (``optimization_barrier``), as fused into one loop XLA would recompute them for every field.
-    """
-    sv = shape_values.T  # (P,) or (P, B)
-    ends = jax.lax.optimization_barrier(capsule_ends(q.T, sv, up))  # (3, K, B)
+    Each end is placed once and projected into all cameras in one step; the results are
+    materialised (``optimization_barrier``), as fused into one loop XLA would recompute them for
+    every field of the records."""
+    ends = jax.lax.optimization_barrier(capsule_ends(q_t, shape_values, up))  # (3, *lead, E, B)
+    cam = broadcast_cameras(cams, 2)  # broadcasts as (C, 1, 1): the camera axis before (E, B)
+    x, y, z = (e[..., None, :, :] for e in ends)
+    return jax.lax.optimization_barrier(project_xyz(cam, x, y, z))
+
+
+def outline_records(proj: tuple, radii, cams) -> jnp.ndarray:
+    """:func:`projected_ends` of one chunk ((C, E, B) each) and the (S, 2) or (S, 2, B) end radii
+    of the segments -> (C, 15, S, B) float32 capsule records."""
+    u, v, z, mag = proj
     cam = broadcast_cameras(cams, 2)
-    u, v, z, mag = jax.lax.optimization_barrier(project_xyz(cam, ends[0], ends[1], ends[2]))
     f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])  # (C, 1, 1)
-    radii = sv[SEGMENT_RADII]  # (S, 2) or (S, 2, B)
 
     def disc(end):
         idx, r = SEGMENT_ENDS[:, end], radii[:, end].reshape(len(SEGMENT_ENDS), -1)  # (S, 1|B)
@@ -180,6 +186,13 @@ def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
 
     (x0, y0, r0, in0), (x1, y1, r1, in1) = disc(0), disc(1)  # (C, S, B) each
     return jnp.stack(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1), axis=1)
+
+
+def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
+    """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
+    last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P)."""
+    sv = shape_values.T  # (P,) or (P, B)
+    return outline_records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams)
 
 
 def box_union(xp, ext, axis: int):
@@ -202,7 +215,13 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
-    caps = jax.lax.optimization_barrier(capsule_fields(q, shape_values, up, cams))  # (C, 15, S, B)
+    sv = shape_values.T  # (P,) or (P, B)
+    return _records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams, long_side, scan_q)
+
+
+def _records(proj, radii, cams, long_side, scan_q):
+    """:func:`_geometry_impl` from one chunk's :func:`projected_ends`."""
+    caps = jax.lax.optimization_barrier(outline_records(proj, radii, cams))  # (C, 15, S, B)
     by_seg = jnp.moveaxis(caps, 1, -1)  # (C, S, B, 15)
     ext = segment_extent(jnp, by_seg, long_side)  # (C, S, B, 4)
     union = box_union(jnp, ext, 2)
@@ -257,14 +276,22 @@ for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple argumen
 def _geometry_calls_impl(q, shape_values, up, cams, long_side, scan_q):
     """Stage 1 for K chunks in one program: (K, B, D) particles -> per camera the records of
     :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
-    ``shape_values`` (P,) or (K, B, P). The chunks run one after the other (``lax.map``), each
-    on a chunk's working set, as K calls of :func:`_geometry_impl` would, without K dispatches."""
-    if shape_values.ndim == 1:
-        recs, ext = jax.lax.map(lambda qk: _geometry_impl(qk, shape_values, up, cams, long_side,
-                                                          scan_q), q)
+    ``shape_values`` (P,) or (K, B, P).
+
+    The forward kinematics and the projection of the capsule ends run on all K x B particles at
+    once (their arrays are small, and per chunk their many short loops cost more to start than to
+    run); the records, extents and row coefficients chunk by chunk (``lax.map``), each on a
+    chunk's working set (over a whole block of 4 cameras they left the caches and ran 1.6x slower).
+    Every number is the one K calls of :func:`_geometry_impl` give (docs/benchmarks.md)."""
+    q_t = jnp.moveaxis(q, -1, 0)  # (D, K, B)
+    sv = shape_values if shape_values.ndim == 1 else jnp.moveaxis(shape_values, -1, 0)
+    proj = projected_ends(q_t, sv, up, cams)  # (K, C, E, B) each
+    radii = sv[SEGMENT_RADII]  # (S, 2) or (S, 2, K, B)
+    if radii.ndim == 2:
+        recs, ext = jax.lax.map(lambda p: _records(p, radii, cams, long_side, scan_q), proj)
     else:
-        recs, ext = jax.lax.map(lambda a: _geometry_impl(a[0], a[1], up, cams, long_side, scan_q),
-                                (q, shape_values))
+        recs, ext = jax.lax.map(lambda a: _records(a[0], a[1], cams, long_side, scan_q),
+                                (proj, jnp.moveaxis(radii, 2, 0)))
     return recs, box_union(jnp, ext, 0)
 
 
