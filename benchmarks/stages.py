@@ -23,13 +23,15 @@ def main():
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--cameras", type=int, default=1)
     ap.add_argument("--particles", type=int, default=6561)
-    ap.add_argument("--chunk", type=int, default=512)
+    ap.add_argument("--chunk", type=int, default=512,
+                    help="particles per chunk; 0: the tracker's chunking for one call of "
+                         "--particles (its block program is then timed too)")
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--data", default=str(shared_data_dir() / profiling.DATASET))
     args = ap.parse_args()
     jax_setup.configure()
     scene = profiling.load_scene(Path(args.data), args.width, args.cameras, args.particles)
-    res = profiling.stage_timings(scene, chunk=args.chunk, repeats=args.repeats)
+    res = profiling.stage_timings(scene, chunk=args.chunk or None, repeats=args.repeats)
     chunk = res["chunk"]
     print(f"{args.width}x{scene.masks[0].shape[0]}, {args.cameras} camera(s), chunk {chunk}, "
           f"sizes {res['sizes']}, device {jax.devices()[0].device_kind}, jax {jax.__version__}")

@@ -306,9 +306,11 @@ def timed(fn, repeats: int) -> tuple[float, float]:
     return float(np.median(wall)), float(np.median(cpu))
 
 
-def stage_timings(scene: Scene, *, chunk: int = 512, repeats: int = 7) -> dict:
+def stage_timings(scene: Scene, *, chunk: int | None = 512, repeats: int = 7) -> dict:
     """Where the time of the JAX measure step goes: each compiled stage of the scorer timed alone
-    on one chunk of the scene's particles, and the whole :meth:`Scorer.counts`.
+    on one chunk of the scene's particles, and the whole :meth:`Scorer.counts`. ``chunk`` None:
+    the tracker's chunking for one call of the scene's particles (:func:`pick_chunking`), whose
+    block program is then timed too (``geometry, block of K``, per chunk).
 
     Returns ``{"chunk", "sizes", "stages": {name: (wall_s, cpu_s) per chunk}, "whole": (wall_s,
     cpu_s) for all particles}``.
@@ -316,8 +318,11 @@ def stage_timings(scene: Scene, *, chunk: int = 512, repeats: int = 7) -> dict:
     from .likelihood.scorer import Scorer, make_observation, pick_chunking
 
     obs = make_observation(scene.masks)
-    s = Scorer(scene.cameras, scene.shape, scene.up, chunk=chunk,
-               block=pick_chunking([len(scene.particles)], chunk=chunk).block)
+    cut = pick_chunking([len(scene.particles)], chunk=chunk)
+    s = Scorer(scene.cameras, scene.shape, scene.up, chunk=cut.chunk, block=cut.block)
     whole = timed(lambda: s.counts(scene.particles, obs), repeats)
-    stages = {name: timed(fn, repeats) for name, fn in s.stages(scene.particles, obs).items()}
+    calls = s.stages(scene.particles, obs)
+    # a block's program (``chunks``, the tracker's geometry call) is reported per chunk of it
+    stages = {name: tuple(t / getattr(fn, "chunks", 1) for t in timed(fn, repeats))
+              for name, fn in calls.items()}
     return {"chunk": s.chunk, "sizes": [tuple(z) for z in s.sizes], "stages": stages, "whole": whole}

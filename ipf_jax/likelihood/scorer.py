@@ -330,6 +330,16 @@ _dense_jit = _compiled(_dense_impl, "n_win", "n_win_words", "q", "long_side")
 _words_jit = _compiled(_words_impl, "n_win", "n_win_words", "n_rows", "n_words")
 
 
+class _PerChunk(NamedTuple):
+    """A profiled call of ``chunks`` chunks (:meth:`Scorer.stages`): its times are divided by them."""
+
+    chunks: int
+    call: object
+
+    def __call__(self):
+        return self.call()
+
+
 class Sizes(NamedTuple):
     """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words,
     entries T of the row list."""
@@ -674,9 +684,11 @@ class Scorer:
 
     def stages(self, particles: np.ndarray, obs: Observation) -> dict:
         """Each compiled stage as a zero-argument call on the first chunk of ``particles``, for
-        profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras), then per
-        camera ``intervals cam K``, ``words cam K`` and ``dense intervals cam K``. The windows are
-        planned for ``particles`` first, as :meth:`counts` does."""
+        profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras; and, when
+        ``particles`` fill a block of several chunks, the block's program as :meth:`counts` runs it,
+        a call with a ``chunks`` attribute), then per camera ``intervals cam K``, ``words cam K``
+        and ``dense intervals cam K``. The windows are planned for ``particles`` first, as
+        :meth:`counts` does."""
         caps, ext = self.geometry(particles, kernel="scanline")
         dense_caps, _ = self.geometry(particles, kernel="dense")
         win = self.plan(ext)
@@ -685,6 +697,11 @@ class Scorer:
         out = {"geometry (all cameras)": lambda: _geometry_jit(
             block, self.shape_values, self.up, self.cams, long_side=self.long_side,
             scan_q=self.q)}
+        if k > 1:  # the program the tracker runs: the whole first block, timed per chunk of it
+            whole = self._put(self._block(np.asarray(particles), start, take, k, b), True)
+            out[f"geometry, block of {k}"] = _PerChunk(k, lambda: _geometry_calls_jit(
+                whole, self.shape_values, self.up, self.cams, long_side=self.long_side,
+                scan_q=self.q))
         for c in range(len(self.cameras)):
             # the first chunk's records (the K axis of the first block dropped)
             rc, cap = jax.tree.map(lambda a: a[0], (caps[0][c], dense_caps[0][c]))
