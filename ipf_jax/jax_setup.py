@@ -45,6 +45,33 @@ def configure() -> None:
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
 
 
+#: Vector extensions XLA's CPU backend compiles for when the host has them, widest first.
+_VECTOR_ISAS = ("avx512f", "avx2", "avx", "sse4_2", "asimd", "neon")
+
+
+def host_cpu() -> dict:
+    """``{"model": ..., "vector_isa": ...}``: the CPU and the widest vector extension it reports
+    (Linux ``/proc/cpuinfo``; ``platform`` elsewhere, ``vector_isa`` then None).
+
+    XLA compiles the float32 geometry for the host it runs on, so another instruction set can
+    round a projected coordinate otherwise, move a count by a pixel and make the same seed's
+    tracks part ways (docs/formats.md, Determinism): results name the CPU they ran on."""
+    import platform
+
+    model, flags = platform.processor() or platform.machine(), set()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            key = key.strip()
+            if key == "model name":
+                model = value.strip()
+            elif key in ("flags", "Features") and not flags:
+                flags = set(value.split())
+    except OSError:
+        pass
+    return {"model": model, "vector_isa": next((f for f in _VECTOR_ISAS if f in flags), None)}
+
+
 #: Share of the kernel's memory-map limit at which :func:`release_compiled` clears JAX's caches.
 MAP_SHARE = 0.5
 _PROC_MAPS = Path("/proc/self/maps")

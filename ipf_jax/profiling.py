@@ -143,19 +143,15 @@ def machine() -> dict:
     """The host, as recorded with every result."""
     import jax
 
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    from .jax_setup import host_cpu
+
+    cpu = host_cpu()
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
-    return {"cpu": cpu, "cores": os.cpu_count(), "memory_gb": round(mem, 1),
-            "os": platform.platform(), "python": platform.python_version(),
-            "numpy": np.__version__, "jax_devices": len(jax.devices()),
-            "jax_platform": jax.devices()[0].platform, "device_kind": jax.devices()[0].device_kind}
+    return {"cpu": cpu["model"], "vector_isa": cpu["vector_isa"], "cores": os.cpu_count(),
+            "memory_gb": round(mem, 1), "os": platform.platform(),
+            "python": platform.python_version(), "numpy": np.__version__,
+            "jax_devices": len(jax.devices()), "jax_platform": jax.devices()[0].platform,
+            "device_kind": jax.devices()[0].device_kind}
 
 
 def device_line() -> str:

@@ -35,6 +35,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .. import __version__
+from ..jax_setup import host_cpu
 from ..body.limits import Limits, limits_to_json, load_limits
 from ..body.model import NUM_DOF, NUM_POINTS
 from ..body.shape import BodyShape, default_shape, load_shape
@@ -724,7 +725,7 @@ class Tracker:
         f = self.filter
         return {
             "ipf_jax_version": __version__, "jax_version": jax.__version__,
-            "device_kind": jax.devices()[0].device_kind,
+            "device_kind": jax.devices()[0].device_kind, "host_cpu": host_cpu(),
             "dataset": str(self.dataset.path), "layout": self.dataset.layout,
             "cameras": [c.name for c in self.dataset.cameras],
             "filter": f.name, "filter_params": f.params,
