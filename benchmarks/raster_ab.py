@@ -83,6 +83,16 @@ def main():
     block = jnp.asarray(np.ascontiguousarray(scene.particles[:512].T, np.float32))
     shape_values = jnp.asarray(np.asarray(s.shape_values))
 
+    def coefficients(mod, caps, axis):
+        """A tree's row coefficients of records whose field axis is ``axis``, the way its scorer
+        computes them: field by field where the tree has ``quantize_fields``, else through
+        ``quantize`` on the records with the fields last."""
+        if hasattr(mod, "quantize_fields"):
+            qf = mod.quantize_fields(jnp, lambda i: jnp.take(caps, i, axis=axis), q, long_side)
+            return mod.row_coeffs(jnp, qf, q)
+        by_seg = jnp.moveaxis(caps, axis, -1)
+        return mod.row_coeffs(jnp, mod.quantize(jnp, by_seg, q, long_side), q)
+
     def coefficient_stage(mod):
         def fn(qt, sv, up, cams):
             caps = jax.lax.optimization_barrier(scorer.capsule_fields(qt, sv, up, cams))
@@ -90,7 +100,7 @@ def main():
             ext = raster.segment_extent(jnp, by_seg, long_side)
             union = jnp.stack([ext[..., 0].min(2), ext[..., 1].max(2), ext[..., 2].min(2),
                                ext[..., 3].max(2)], -1)
-            return mod.row_coeffs(jnp, mod.quantize(jnp, by_seg, q, long_side), q), union
+            return coefficients(mod, caps, 1), union
         f = compiled(fn, block, shape_values, s.up, s.cams)
         return lambda: f(block, shape_values, s.up, s.cams)
 
@@ -98,11 +108,10 @@ def main():
            "device": jax.devices()[0].device_kind, "jax": jax.__version__, "stages": {}}
     calls = {}
     for c in range(args.cameras):
-        by_seg = jnp.moveaxis(records[0][c][0], 0, -1)  # (S, B, 15)
         h, w, rows = s.heights[c], s.widths[c], win.rows[c]
         packed = {}
         for name, mod in mods.items():
-            rc = jax.jit(lambda x, mod=mod: mod.row_coeffs(jnp, mod.quantize(jnp, x, q, long_side), q))(by_seg)
+            rc = jax.jit(lambda x, mod=mod: coefficients(mod, x, 0))(records[0][c][0])
             f = compiled(lambda r, l, mod=mod, h=h, w=w: mod.list_intervals(r, l, q, h, w), rc, rows)
             calls[f"intervals cam {c + 1} {name}"] = lambda f=f, rc=rc, rows=rows: f(rc, rows)
             packed[name] = np.asarray(f(rc, rows))

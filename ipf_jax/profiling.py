@@ -317,8 +317,7 @@ def stage_timings(scene: Scene, *, chunk: int | None = 512, repeats: int = 7) ->
     cut = pick_chunking([len(scene.particles)], chunk=chunk)
     s = Scorer(scene.cameras, scene.shape, scene.up, chunk=cut.chunk, block=cut.block)
     whole = timed(lambda: s.counts(scene.particles, obs), repeats)
-    calls = s.stages(scene.particles, obs)
-    # a block's program (``chunks``, the tracker's geometry call) is reported per chunk of it
-    stages = {name: tuple(t / getattr(fn, "chunks", 1) for t in timed(fn, repeats))
-              for name, fn in calls.items()}
+    # a block's program (the tracker's geometry call) is reported per chunk of it
+    stages = {name: tuple(t / chunks for t in timed(call, repeats))
+              for name, (call, chunks) in s.stages(scene.particles, obs).items()}
     return {"chunk": s.chunk, "sizes": [tuple(z) for z in s.sizes], "stages": stages, "whole": whole}

@@ -181,7 +181,7 @@ def test_row_coeffs_field_by_field_equal_those_of_the_stacks():
     fields = quantize_fields(np, lambda i: caps[..., i], q, long_side)
     for a, b in zip(jax.tree.leaves(as_fields(stacked)), jax.tree.leaves(fields)):
         np.testing.assert_array_equal(a, b)
-    ref = row_coeffs(np, stacked, q)
+    ref = row_coeffs(np, as_fields(stacked), q)
     by_fields = jax.jit(lambda c: row_coeffs(jnp, quantize_fields(jnp, lambda i: c[..., i], q,
                                                                    long_side), q))(caps)
     leaves = jax.tree.leaves(ref)

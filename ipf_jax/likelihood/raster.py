@@ -230,9 +230,9 @@ class RowCoeffs(NamedTuple):
     rows: tuple
 
 
-def row_coeffs(xp, qc: QuantFields | QuantCaps, q: int) -> RowCoeffs:
-    """Quantised capsules (batch ``qc.drawn.shape``) -> :class:`RowCoeffs`, exact int32."""
-    qf = as_fields(qc) if isinstance(qc, QuantCaps) else qc
+def row_coeffs(xp, qf: QuantFields, q: int) -> RowCoeffs:
+    """:class:`QuantFields` (batch ``qf.drawn.shape``) -> :class:`RowCoeffs`, exact int32
+    (:func:`as_fields` gives them of stacked :class:`QuantCaps`)."""
     disc = tuple((cx, cy, xp.where(qf.drawn, r * r, -1).astype(xp.int32)) for cx, cy, r in qf.disc)
     edges = []
     for k in range(4):
@@ -309,7 +309,7 @@ def row_intervals(qc: QuantCaps, rows, q: int, width, xp=jnp):
     vectorised NumPy baseline, which adds leading particle axes).
     """
     py = (rows if rows.ndim == qc.drawn.ndim + 1 else rows[..., None, :]) * q  # (..., S or 1, R)
-    return solve_rows(row_coeffs(xp, qc, q), py, q, width, lambda a: a[..., None], xp)
+    return solve_rows(row_coeffs(xp, as_fields(qc), q), py, q, width, lambda a: a[..., None], xp)
 
 
 def pack_intervals(lo, hi, rows, height, width, xp=jnp):

@@ -330,16 +330,6 @@ _dense_jit = _compiled(_dense_impl, "n_win", "n_win_words", "q", "long_side")
 _words_jit = _compiled(_words_impl, "n_win", "n_win_words", "n_rows", "n_words")
 
 
-class _PerChunk(NamedTuple):
-    """A profiled call of ``chunks`` chunks (:meth:`Scorer.stages`): its times are divided by them."""
-
-    chunks: int
-    call: object
-
-    def __call__(self):
-        return self.call()
-
-
 class Sizes(NamedTuple):
     """Static sizes (the compile keys): window rows R and words Wd, union grid rows and words,
     entries T of the row list."""
@@ -683,25 +673,27 @@ class Scorer:
             self.sizes = self._buckets(np.max(np.stack(self._recent), axis=0), shrink=True)
 
     def stages(self, particles: np.ndarray, obs: Observation) -> dict:
-        """Each compiled stage as a zero-argument call on the first chunk of ``particles``, for
-        profiling (:func:`ipf_jax.profiling.stage_timings`): ``geometry`` (all cameras; and, when
-        ``particles`` fill a block of several chunks, the block's program as :meth:`counts` runs it,
-        a call with a ``chunks`` attribute), then per camera ``intervals cam K``, ``words cam K``
-        and ``dense intervals cam K``. The windows are planned for ``particles`` first, as
-        :meth:`counts` does."""
+        """Each compiled stage as ``(call, chunks)``, a zero-argument call on the first chunk of
+        ``particles`` (``chunks`` 1) for profiling (:func:`ipf_jax.profiling.stage_timings`):
+        ``geometry`` (all cameras; and, when ``particles`` fill a block of K chunks, the block's
+        program as :meth:`counts` runs it, ``chunks`` K), then per camera ``intervals cam K``,
+        ``words cam K`` and ``dense intervals cam K``. The windows are planned for ``particles``
+        first, as :meth:`counts` does."""
         caps, ext = self.geometry(particles, kernel="scanline")
         dense_caps, _ = self.geometry(particles, kernel="dense")
         win = self.plan(ext)
         start, take, k, b = self._blocks(len(particles))[0]
-        block = self._put(self._block(np.asarray(particles), start, take, k, b), True)[0]
+        whole = self._put(self._block(np.asarray(particles), start, take, k, b), True)
+        block = whole[0]
         out = {"geometry (all cameras)": lambda: _geometry_jit(
             block, self.shape_values, self.up, self.cams, long_side=self.long_side,
             scan_q=self.q)}
-        if k > 1:  # the program the tracker runs: the whole first block, timed per chunk of it
-            whole = self._put(self._block(np.asarray(particles), start, take, k, b), True)
-            out[f"geometry, block of {k}"] = _PerChunk(k, lambda: _geometry_calls_jit(
-                whole, self.shape_values, self.up, self.cams, long_side=self.long_side,
-                scan_q=self.q))
+        chunks = {}  # calls of several chunks: the block's program, as the tracker runs it
+        if k > 1:
+            name = f"geometry, block of {k}"
+            chunks[name] = k
+            out[name] = lambda: _geometry_calls_jit(whole, self.shape_values, self.up, self.cams,
+                                                    long_side=self.long_side, scan_q=self.q)
         for c in range(len(self.cameras)):
             # the first chunk's records (the K axis of the first block dropped)
             rc, cap = jax.tree.map(lambda a: a[0], (caps[0][c], dense_caps[0][c]))
@@ -719,7 +711,7 @@ class Scorer:
             out[f"dense intervals cam {c + 1}"] = lambda cap=cap, c=c, h=h, w=w, sz=sz: _dense_jit(
                 cap, win.rows[c], win.win_rows[c], win.win_words[c], h, w, n_win=sz.win_rows,
                 n_win_words=sz.win_words, q=self.q, long_side=self.long_side)
-        return out
+        return {name: (call, chunks.get(name, 1)) for name, call in out.items()}
 
     # -- scoring ---------------------------------------------------------------------------------
     def counts(self, particles: np.ndarray, obs: Observation, *, full_roi: bool = False,
