@@ -88,10 +88,12 @@ def load_scene(data: Path, width: int, n_cameras: int, n: int, *, seed: int = 0)
     return Scene(cams, masks, particles, default_shape().scaled_to(height), up_rotation("+z"), q0)
 
 
-def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=None):
+def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=None,
+                 threads: int | None = None):
     """The full measure step of a backend: (N, D) particles -> (N,) weights. The JAX scorer's
     chunking is the tracker's for measure calls of ``calls`` particles (default: one call of the
-    scene's particles; ``chunk`` given: only the chunks per compiled call are chosen)."""
+    scene's particles; ``chunk`` given: only the chunks per compiled call are chosen); ``threads``
+    its host threads (default: the scorer's)."""
     from .likelihood.scorer import (
         Scorer,
         make_observation,
@@ -103,11 +105,12 @@ def measure_step(backend: str, scene: Scene, *, chunk: int | None = None, calls=
     if backend.startswith("jax-"):
         chunk, block = pick_chunking(calls or [len(scene.particles)], chunk=chunk)
         scorer = Scorer(scene.cameras, scene.shape, scene.up, kernel=backend[4:], chunk=chunk,
-                        block=block)
+                        block=block, threads=threads)
 
         def step(p):
             return weights_from_counts(scorer.counts(p, obs), obs.active)[0]
         step.chunking = (scorer.chunk, scorer.block)  # as the scorer has it (device rounding)
+        step.threads = scorer.threads
         return step
     if backend == "numpy-scanline":
         from .reference import scanline as ref
@@ -181,11 +184,12 @@ def _common() -> dict:
 
 # -- the two kinds of record -----------------------------------------------------------------------
 def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
-                  budget_s: float = 60.0, chunk: int | None = None) -> tuple[dict, np.ndarray]:
+                  budget_s: float = 60.0, chunk: int | None = None,
+                  threads: int | None = None) -> tuple[dict, np.ndarray]:
     """Time the measure step of ``backend`` on the first ``n`` poses -> (record, weights)."""
     exact_peak = _reset_peak()
     particles = scene.particles[:n]
-    fn = measure_step(backend, scene, chunk=chunk, calls=[n])
+    fn = measure_step(backend, scene, chunk=chunk, calls=[n], threads=threads)
     t0 = time.perf_counter()
     weights = fn(particles)  # compiles (JAX), fixes the window sizes
     first = time.perf_counter() - t0
@@ -201,6 +205,7 @@ def bench_measure(backend: str, scene: Scene, n: int, *, repeats: int = 3,
     rec = {"backend": backend, "height": h, "width": w, "cameras": len(scene.cameras),
            "particles": n, "particles_per_s": round(n / med, 1),
            "chunking": list(getattr(fn, "chunking", ())) or None,
+           "threads": getattr(fn, "threads", None),
            "compile_s": round(max(first - med, 0.0), 3) if backend.startswith("jax-") else None,
            "peak_rss_mb": round(_peak_mb(), 1), **_common(),
            "task": "measure", "seconds": round(med, 5), "repeats": len(times),

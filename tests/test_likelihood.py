@@ -95,6 +95,33 @@ def test_a_padded_call_runs_its_last_chunks_in_one_more_block(scene):
     np.testing.assert_array_equal(small.counts(particles, obs, pad=True), want)
 
 
+def test_threads_run_halved_blocks_side_by_side_with_the_same_counts(scene):
+    """``threads``: each block is cut into a part per thread (as if full: a padded block gets the
+    parts a full one gets; parts without particles dropped), whose programs and each camera's run
+    from several host threads; the counts are those of one thread."""
+    from ipf_jax.likelihood import scorer as scorer_mod
+
+    cams, q, masks, particles = scene
+    obs = make_observation(list(masks[3]))
+    one = Scorer(cams, SHAPE, U, chunk=5, block=8, threads=1)
+    assert one._spread(one._blocks(40)) == [(0, 40, 8, 5)]
+    want = one.counts(particles, obs)
+    three = Scorer(cams, SHAPE, U, chunk=5, block=8, threads=3)
+    assert three._spread(three._blocks(40)) == [(0, 15, 3, 5), (15, 15, 3, 5), (30, 10, 3, 5)]
+    assert three._spread(three._blocks(1, pad=True)) == [(0, 1, 3, 5)]  # the parts' size
+    assert three._spread(three._blocks(12, pad=True)) == [(0, 12, 3, 5)]
+    assert three._spread([(0, 3, 2, 5), (10, 5, 1, 5)]) == [(0, 3, 1, 5), (10, 5, 1, 5)]
+    before = scorer_mod._counts_jit._cache_size()
+    np.testing.assert_array_equal(three.counts(particles, obs), want)
+    assert scorer_mod._counts_jit._cache_size() - before <= 2  # one program of 3 chunks a camera
+    np.testing.assert_array_equal(three.counts(particles[:12], obs, pad=True), want[:12])
+    np.testing.assert_array_equal(
+        Scorer(cams, SHAPE, U, chunk=5, block=8, threads=2, kernel="dense").counts(particles, obs),
+        want)
+    with pytest.raises(Exception, match="threads must be >= 1"):
+        Scorer(cams, SHAPE, U, threads=0)
+
+
 def test_reset_windows_sizes_them_to_the_next_call(scene):
     """After a wide search the tracker forgets its window sizes: the next call's own need sets
     them (smaller than the wide cloud's), and the counts are those of the whole image."""
@@ -203,7 +230,7 @@ def test_no_retrace_across_frames(scene):
             traces.clear()
             for name, (impl, static) in stages.items():
                 setattr(likelihood, name, jax.jit(counted(impl), static_argnames=static))
-            scorer = Scorer(cams, SHAPE, U, chunk=16, block=2)
+            scorer = Scorer(cams, SHAPE, U, chunk=16, block=2, threads=1)  # blocks kept whole
             obs = make_observation(list(masks[0]))
             scorer.counts(particles, obs, pad=pad)  # warm-up: window sizes
             first = dict(traces)

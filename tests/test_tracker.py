@@ -372,7 +372,8 @@ def test_a_start_pose_is_scored_in_a_block_as_the_frames_are(scene, tmp_path, mo
     padded = Tracker(ds, settings)
     assert padded.scorer.block > 1  # IPF's 324 particles a frame in chunks of 64: in blocks
     padded.run(tmp_path / "padded", progress=False)
-    assert blocks[0] == padded.scorer.block  # the start pose: one block, padded
+    frame_blocks = padded.scorer._spread(padded.scorer._blocks(324))  # halved for its threads
+    assert blocks[0] == frame_blocks[0][2]  # the start pose: one block of the frames', padded
     blocks.clear()
     plain = Tracker(ds, settings)
     plain.measure = lambda obs, shape=None, log=None, pad=False: Tracker.measure(plain, obs, shape,

@@ -56,6 +56,8 @@ def add_parser(sub) -> None:
     add_option(p, "budget", type=float, default=60.0, help="seconds per record after which the "
                "repeats stop (default 60)")
     add_option(p, "chunk", help="particles per compiled call (default: the scorer's)")
+    add_option(p, "threads", help="host threads running the compiled programs at once (default: "
+               "the scorer's)")
     p.add_argument("--track-widths", default="320",
                    help="scoring widths for the tracking records (ipf 6561 and apf 4000x5); '' = none")
     p.add_argument("--start-sets", default=",".join(START_SETS),
@@ -109,7 +111,7 @@ def run(args) -> int:
                      "numpy-reference": [args.reference_particles]}.get(backend, counts)
             for n in sizes:
                 rec, _ = bench_measure(backend, scene, n, repeats=args.repeats, budget_s=args.budget,
-                                       chunk=args.chunk)
+                                       chunk=args.chunk, threads=args.threads)
                 records.append({**rec, "machine": host})
                 write_json_atomic(out, records)  # partial results survive an interruption
                 bar.set_postfix(last=f"{backend} {width} {n_cam}cam {n}: {rec['particles_per_s']:.0f}/s")

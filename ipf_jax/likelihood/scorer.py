@@ -29,7 +29,9 @@ Particles go in chunks of B (memory and cache stay bounded) and a call's chunks 
 compiled call per block, stages 2 and 3 one per block and camera, each running its K chunks one
 after the other (``lax.map``), so a frame dispatches a few programs instead of three per chunk
 and camera (1.2-1.3x less time on a frame's particles; each K is one more program to load:
-docs/benchmarks.md).
+docs/benchmarks.md). On the CPU a call's programs run from several host threads at once (one per
+core; a call's blocks halved until each thread has one): JAX's CPU client runs the programs one
+thread dispatches one after the other, each using the other cores only in its parallel loops.
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
 capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, a
@@ -46,7 +48,10 @@ smaller chunk when :data:`SMALL_CHUNKS` are on, and each chunk is sharded over a
 from __future__ import annotations
 
 import collections
+import concurrent.futures
 import functools
+import os
+import threading
 from typing import NamedTuple
 
 import jax
@@ -110,6 +115,27 @@ PROGRAM_COST = 1024
 #: Frames whose window needs must all fit a smaller bucket before :meth:`Scorer.new_frame` shrinks
 #: it (every new size is a compile of ~0.1 s with one camera; a frame's scoring is 30-50 ms).
 SHRINK_FRAMES = 8
+
+
+def default_threads() -> int:
+    """Host threads that run a call's compiled programs at once: the CPU cores this process may
+    use on the CPU backend, 1 on others (there asynchronous dispatch already overlaps them).
+
+    JAX's CPU client runs the programs dispatched from one thread one after the other, each using
+    the cores only in its parallel loops; programs called from two threads run side by side (a
+    call's four cameras' raster programs took 1.3x less time: docs/benchmarks.md)."""
+    if jax.default_backend() != "cpu":
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@functools.lru_cache(maxsize=None)
+def _pool(threads: int) -> concurrent.futures.ThreadPoolExecutor:
+    """One pool per thread count, shared by every scorer of the process."""
+    return concurrent.futures.ThreadPoolExecutor(threads, thread_name_prefix="ipf-jax-scorer")
 
 
 def scoring_cameras(cameras: list[Camera], resolution: int) -> tuple[list[Camera], list[float]]:
@@ -482,13 +508,17 @@ class Scorer:
     block : chunks per compiled call (a power of two; a call's chunks beyond its whole blocks go
         one per call). :func:`pick_chunking` chooses both from a filter's calls.
     devices : devices to shard each chunk's particle axis over (default: all local devices).
+    threads : host threads that run a call's compiled programs at once (default
+        :func:`default_threads`); counts never depend on it.
     """
 
     def __init__(self, cameras: list[Camera], shape: BodyShape, up: np.ndarray, *,
                  kernel: str = "scanline", chunk: int = DEFAULT_CHUNK, block: int = 1,
-                 devices=None):
+                 devices=None, threads: int | None = None):
         require(kernel in KERNELS, f"unknown kernel {kernel!r} (choose {', '.join(KERNELS)})")
         require(chunk >= 1, "chunk must be >= 1")
+        self.threads = default_threads() if threads is None else int(threads)
+        require(self.threads >= 1, f"threads must be >= 1 (got {threads})")
         require(1 <= block <= MAX_CALL_CHUNKS and block & (block - 1) == 0,
                 f"block must be a power of two up to {MAX_CALL_CHUNKS} (got {block})")
         self.block = int(block)
@@ -559,6 +589,20 @@ class Scorer:
             start += take
         return out
 
+    def _spread(self, cuts: list) -> list:
+        """:meth:`_blocks`' cuts with each block of several chunks cut into :attr:`threads` parts
+        (of ``ceil(K / threads)`` chunks, the last one padded when K is not a multiple), whose
+        programs then run side by side (:meth:`_run`). Every block is cut as if full, whatever
+        the call, so a padded block (``pad``: a start pose) runs on the programs the filter's calls
+        use; a part holding none of the call's particles is dropped."""
+        out = []
+        for start, take, k, b in cuts:
+            part = -(-k // min(self.threads, k))
+            end = start + take
+            out += [(s, min(part * b, end - s), part, b)
+                    for s in range(start, start + k * b, part * b) if s < end]
+        return out
+
     @staticmethod
     def _block(x: np.ndarray, start: int, take: int, k: int, b: int, dtype=np.float32) -> np.ndarray:
         """Rows ``start .. start + take`` of ``x`` as a (K, B, ...) block, padded with copies of
@@ -577,18 +621,48 @@ class Scorer:
         ``shapes`` (N, P): a body per particle (default: :attr:`shape` for all)."""
         particles = np.asarray(particles)
         scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
-        recs, exts = [], []
-        for start, take, k, b in cuts or self._blocks(len(particles)):
+
+        def call(cut):
+            start, take, k, b = cut
             block = self._put(self._block(particles, start, take, k, b), True)
             body = (self._put(self.shape_values) if shapes is None
                     else self._put(self._block(shapes, start, take, k, b), True))
-            rec, ext = _geometry_calls_jit(block, body, self.up, self.cams,
-                                           long_side=self.long_side, scan_q=scan_q)
-            recs.append(rec)
-            exts.append(ext)
-        ext = np.stack([np.asarray(e) for e in exts]).astype(np.int64)
-        union = box_union(np, ext, 0)
+            return _geometry_calls_jit(block, body, self.up, self.cams, long_side=self.long_side,
+                                       scan_q=scan_q)
+
+        done = self._run(call, lambda res: (res[0], np.asarray(res[1])),
+                         cuts or self._blocks(len(particles)))
+        recs = [rec for rec, _ in done]
+        union = box_union(np, np.stack([ext for _, ext in done]).astype(np.int64), 0)
         return recs, union
+
+    def _run(self, call, read, items) -> list:
+        """``[read(call(x)) for x in items]``: ``call`` dispatches a compiled program, ``read``
+        waits for its result. On one thread every call is dispatched before the first read (the
+        device works while the host dispatches). On :attr:`threads` threads each thread calls and
+        reads its items, so the programs run side by side: JAX's CPU client runs the programs one
+        thread dispatches one after the other. (A program that two threads meet first at once is
+        traced and compiled once: ``jax.jit`` waits for the other thread's.)"""
+        items = list(items)
+        if self.threads == 1 or len(items) < 2:
+            return [read(r) for r in [call(x) for x in items]]
+        todo, out = iter(range(len(items))), [None] * len(items)
+        lock = threading.Lock()
+
+        def stream(_):  # take the next item, call it, then read the one called before
+            held = None
+            while True:
+                with lock:
+                    i = next(todo, None)
+                res = None if i is None else (i, call(items[i]))
+                if held is not None:
+                    out[held[0]] = read(held[1])
+                if res is None:
+                    return
+                held = res
+
+        list(_pool(self.threads).map(stream, range(min(self.threads, len(items)))))
+        return out
 
     def plan(self, ext: np.ndarray, full: bool = False) -> Windows:
         """Windows for capsule extents (C, S, 4); grows :attr:`sizes` (one per camera) when they
@@ -738,27 +812,30 @@ class Scorer:
         require(obs.words.shape[0] == len(self.cameras), "observation and cameras differ in number")
         if obs.words.shape[1:] != (self.h_pad, self.w_words):
             raise IPFError(f"mask size {obs.words.shape[1:]} does not match the cameras' scoring size")
-        cuts = self._blocks(len(particles), pad=pad)
+        cuts = self._spread(self._blocks(len(particles), pad=pad))
         recs, ext = self.geometry(particles, shapes, cuts=cuts)
         win = self.plan(ext, full=full_roi)
         dense = self.kernel == "dense"
         per_cam = [(RowList(*(self._put(a) for a in win.rows[c])), self._put(obs.words[c]),
                     win.row0[c], win.word0[c], win.win_rows[c], win.win_words[c], self.heights[c],
                     self.widths[c], tuple(self.sizes[c][:4])) for c in range(len(self.cameras))]
-        pending = []
-        for (start, take, _, _), rec in zip(cuts, recs):
-            pending.append((start, take, [
-                _counts_jit(rec[c], *args, q=self.q, long_side=self.long_side, sizes=sizes,
-                            dense=dense) for c, (*args, sizes) in enumerate(per_cam)]))
-        # the device buffers are released here, each block's as soon as it is read (dropped by
-        # the caller they cost it ~1 ms a frame, a part of this step that looked like its own)
-        del recs, per_cam
         out = np.empty((len(particles), len(self.cameras), 2), np.int64)
-        pending.reverse()
-        while pending:  # everything is dispatched before the first result is read
-            start, take, res = pending.pop()
-            out[start:start + take] = np.stack([np.asarray(r).reshape(-1, 2)[:take] for r in res], 1)
-            del res
+
+        def call(task):  # one block in one camera
+            i, c = task
+            *args, sizes = per_cam[c]
+            return task, _counts_jit(recs[i][c], *args, q=self.q, long_side=self.long_side,
+                                     sizes=sizes, dense=dense)
+
+        def read(res):
+            (i, c), counts = res
+            start, take = cuts[i][:2]
+            out[start:start + take, c] = np.asarray(counts).reshape(-1, 2)[:take]
+
+        self._run(call, read, [(i, c) for i in range(len(cuts)) for c in range(len(self.cameras))])
+        # the device buffers are released here (dropped by the caller they cost it ~1 ms a frame,
+        # a part of this step that looked like its own)
+        del recs, per_cam
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
         return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)

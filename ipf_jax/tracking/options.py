@@ -214,6 +214,9 @@ OPTIONS: tuple[Option, ...] = (
     Option("chunk", "--chunk", "int", None, "particles per chunk of a compiled call: memory vs speed, "
            f"never the result (default {DEFAULT_CHUNK}, or what the filter's calls fit better: IPF's "
            "416, 16 to a call; the factored filter's 216)", check=_at_least(1)),
+    Option("threads", "--threads", "int", None, "host threads running the compiled programs at "
+           "once: speed, never the result (default: the CPU cores this process may use; 1 on a GPU)",
+           check=_at_least(1)),
     Option("kernel", "--kernel", "choice", "scanline", "raster kernel: scanline (default) or dense; "
            "both give the same pixel counts", choices=KERNELS),
     Option("checkpoint_every", "--checkpoint-every", "int", 10, "write a checkpoint (and run.json) "

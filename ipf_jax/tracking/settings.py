@@ -46,6 +46,7 @@ class TrackSettings(NamedTuple):
     up_axis: str | None = None
     seed: int = 0
     chunk: int | None = None  # None: the scorer's default or what fits the filter's calls
+    threads: int | None = None  # None: the scorer's default (likelihood.scorer.default_threads)
     kernel: str = "scanline"
     checkpoint_every: int = 10
     confidence_drop: float = 0.5  # re-initialise below this fraction of the recent median weight...

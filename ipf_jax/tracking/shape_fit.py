@@ -418,7 +418,7 @@ def fit_scorer(scene, shape: BodyShape) -> Scorer:
     """A scorer of its own for the calibration: shape candidates up to the bounds need larger
     windows than the tracking does, and window buckets only grow (see :class:`Scorer`)."""
     s = scene.scorer
-    return Scorer(scene.cameras, shape, scene.U, kernel=s.kernel, chunk=s.chunk)
+    return Scorer(scene.cameras, shape, scene.U, kernel=s.kernel, chunk=s.chunk, threads=s.threads)
 
 
 # -- pass 1: at the start of a run ------------------------------------------------------------------

@@ -242,7 +242,7 @@ class Tracker:
         # padding against calls and programs: docs/benchmarks.md
         chunk, block = pick_chunking(self.filter.calls, chunk=settings.chunk)
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
-                             chunk=chunk, block=block)
+                             chunk=chunk, block=block, threads=settings.threads)
         self.key = jax.random.PRNGKey(settings.seed)
 
     def measure_height(self) -> dict:
@@ -746,6 +746,7 @@ class Tracker:
             "evaluations_per_frame": f.evaluations_per_frame,
             "chunk": self.scorer.chunk,
             "chunks_per_call": self.scorer.block,
+            "threads": self.scorer.threads,
             "init_evaluations": state.init_evaluations,
             "reinitialisations": list(state.reinits),
             "recovery": recovery_summary(state.recoveries),
