@@ -835,7 +835,7 @@ class Scorer:
         self._run(call, read, [(i, c) for i in range(len(cuts)) for c in range(len(self.cameras))])
         # the device buffers are released here (dropped by the caller they cost it ~1 ms a frame,
         # a part of this step that looked like its own)
-        del recs, per_cam
+        recs = per_cam = None
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
         return np.stack([nc, obs.fg[None, :] - nc, nm_total - nc], -1)
