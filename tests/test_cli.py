@@ -133,6 +133,10 @@ def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, caps
     assert "is a folder" in _one_error(["bench", "--quick", "--json", str(folder)], capsys)
     assert "particles" in _one_error(["bench", "--quick", "--particles", "0", "--json",
                                       str(tmp_path / "b.json")], capsys)
+    for flag in ("--threads", "--chunk"):  # refused before anything is timed
+        assert f"{flag} 0" in _one_error(["bench", "--quick", flag, "0", "--json",
+                                          str(tmp_path / "b.json")], capsys)
+    assert not (tmp_path / "b.json").exists()
     assert "--fps 0" in _one_error(["render", str(tmp_path), "--out", str(tmp_path / "v.mp4"),
                                     "--fps", "0"], capsys)
     assert "--seed" in _one_error(["demo", "--seed", "-1", "--out", str(tmp_path / "demo")], capsys)

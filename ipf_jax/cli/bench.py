@@ -15,7 +15,8 @@ from ..profiling import (
     load_scene,
     machine,
 )
-from .options import add_common, add_option
+from ..tracking.options import check_value
+from .options import add_common, add_option, flag
 
 
 #: Datasets whose default runs' one-off stages the bench times (under mocap_walk_render).
@@ -92,6 +93,9 @@ def run(args) -> int:
     require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
     require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
             "cameras, particles and repeats must be >= 1")
+    for key in ("chunk", "threads"):  # the tracking options' own rules, before any work
+        if getattr(args, key) is not None:
+            check_value(key, getattr(args, key), flag(key))
     if args.quick:  # after the checks: --quick does not hide a bad value
         widths, cams, counts, track_widths = [320], [1], [1024], []
     if args.cold:
