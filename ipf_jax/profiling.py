@@ -311,7 +311,10 @@ def stage_timings(scene: Scene, *, chunk: int | None = 512, repeats: int = 7) ->
     """Where the time of the JAX measure step goes: each compiled stage of the scorer timed alone
     on one chunk of the scene's particles, and the whole :meth:`Scorer.counts`. ``chunk`` None:
     the tracker's chunking for one call of the scene's particles (:func:`pick_chunking`), whose
-    block program is then timed too (``geometry, block of K``, per chunk).
+    block program is then timed too (``geometry, block of K``, per chunk), and, when the scorer
+    cuts the call into parts for its host threads, the call's whole geometry as
+    :meth:`Scorer.counts` runs it (``geometry, P parts side by side``, per chunk; host work
+    included).
 
     Returns ``{"chunk", "sizes", "stages": {name: (wall_s, cpu_s) per chunk}, "whole": (wall_s,
     cpu_s) for all particles}``.
@@ -325,4 +328,9 @@ def stage_timings(scene: Scene, *, chunk: int | None = 512, repeats: int = 7) ->
     # a block's program (the tracker's geometry call) is reported per chunk of it
     stages = {name: tuple(t / chunks for t in timed(call, repeats))
               for name, (call, chunks) in s.stages(scene.particles, obs).items()}
+    cuts = s._spread(s._blocks(len(scene.particles)))
+    if len(cuts) > 1:
+        chunks = sum(k for _, _, k, _ in cuts)
+        stages[f"geometry, {len(cuts)} parts side by side"] = tuple(
+            t / chunks for t in timed(lambda: s.geometry(scene.particles, cuts=cuts), repeats))
     return {"chunk": s.chunk, "sizes": [tuple(z) for z in s.sizes], "stages": stages, "whole": whole}
