@@ -30,8 +30,9 @@ compiled call per block, stages 2 and 3 one per block and camera, each running i
 after the other (``lax.map``), so a frame dispatches a few programs instead of three per chunk
 and camera (1.2-1.3x less time on a frame's particles; each K is one more program to load:
 docs/benchmarks.md). On the CPU a call's programs run from several host threads at once (one per
-core; a call's blocks halved until each thread has one): JAX's CPU client runs the programs one
-thread dispatches one after the other, each using the other cores only in its parallel loops.
+core; each block cut into a part per thread, :meth:`Scorer._spread`): JAX's CPU client runs the
+programs one thread dispatches one after the other, each using the other cores only in its
+parallel loops.
 
 Between stages 1 and 2 the host plans the windows (:meth:`Scorer.plan`): one window per camera and
 capsule, shared by every particle of the frame, holding that capsule's pixels in all of them, a
