@@ -234,6 +234,36 @@ def test_wider_shoulders_are_scored_with_the_arms_moved_with_them():
         assert np.allclose(p[0], place_on_floor(fr.particles[0], wide, U), atol=1e-6)
 
 
+def test_two_searches_give_the_mean_of_their_bodies():
+    """``searches = 2``: the body is the mean (log factors) of two searches from the same start,
+    the second drawing from ``default_rng((seed, 1))``; one search is what the default runs."""
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.tracking.shape_fit import _Objective, _search
+
+    template = default_shape(1.75)
+    target = np.log(P.group_factors(template.with_factors(legs=1.06, arms=0.95).values))
+
+    def measure(q, shapes):  # a score that prefers one body, and the pose near standing
+        lf = np.log(P.group_factors(np.asarray(shapes, np.float64)))
+        return 1.0 - ((lf - target) ** 2).sum(1) - 1e-3 * (np.asarray(q)[:, 3:] ** 2).sum(1)
+
+    limits = load_limits("default")
+    q0 = place_on_floor(gait_pose(10, 20, -5, 5), template.values, U)[None]
+    frames = [FramePoses(f, measure, q0, measure(q0, template.values[None])) for f in (0, 1)]
+    settings = ShapeFitSettings(rounds=1, generations=3, population=6, pose_keep=1, pose_sweeps=1)
+    obj = _Objective(frames, template, U, limits, None, settings)
+    theta, values, current = obj.starting_point()
+    obj.start = float(obj.score(values[None], [fr.particles for fr in current], values)[0][0])
+    a, b = (_search(obj, theta, values, current, rng)
+            for rng in (np.random.default_rng(3), np.random.default_rng((3, 1))))
+    assert not np.allclose(a[0], b[0])  # two different searches
+    one = fit_shape(frames, template, U, limits, settings=settings, seed=3)
+    two = fit_shape(frames, template, U, limits, settings=settings._replace(searches=2), seed=3)
+    assert np.allclose(one.shape.values, a[1])
+    assert np.allclose(two.shape.values, obj.body((a[0] + b[0]) / 2))
+    assert two.evaluations > one.evaluations
+
+
 def test_angles_are_carried_over_with_three_cameras_or_more():
     from ipf_jax.tracking.shape_fit import CARRY_ANGLES_MIN_VIEWS, for_views
 

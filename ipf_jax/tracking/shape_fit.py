@@ -97,6 +97,10 @@ class ShapeFitSettings(NamedTuple):
     alone, wider shoulders kept the elbows and wrists where the narrower body had put them, so
     the fit could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
     docs/shape_fit.md).
+    searches : independent shape searches (the rounds above) from the same start; with more than
+    one, the body is the mean of theirs (log factors) and the best one's poses are carried over
+    to it. 1 is the default: two cost a third more evaluations and their gain was within the
+    seeds' spread (docs/shape_fit.md).
     """
 
     frames: int = 8  # the default of --shape-frames (measured: docs/shape_fit.md)
@@ -111,6 +115,7 @@ class ShapeFitSettings(NamedTuple):
     split_prior: float = 1e-2
     retarget_iterations: int = 3
     carry_angles: bool = True
+    searches: int = 1
 
 
 #: Fewest cameras for ``carry_angles``. Measured on the visible renders (docs/shape_fit.md): with
@@ -358,24 +363,12 @@ class _Objective:
         return log_factors(values, self.ref), values, current
 
 
-def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, limits: Limits, *,
-              height_m: float | None = None, settings: ShapeFitSettings = ShapeFitSettings(),
-              seed: int = 0) -> ShapeFitResult:
-    """Fit the body's group factors and the frames' poses together (module doc).
-
-    frames : K >= 1 frames with their scorers and starting poses (M_k, D).
-    reference : the shape theta = 0 stands for.  height_m : standing height to hold, or None.
-    Returns the fitted shape (``height_m`` = its standing height), the frames' refined poses,
-    the likelihood evaluations and seconds spent, and a record for run.json.
-    """
-    require(len(frames) >= 1, "the shape fit needs at least one frame")
-    t0 = time.perf_counter()
-    s = settings
-    rng = np.random.default_rng(seed)
-    obj = _Objective(frames, reference, U, limits, height_m, settings)
-    theta, values, current = obj.starting_point()
-    obj.start = float(obj.score(values[None], [fr.particles for fr in current], values)[0][0])
-    history = [round(obj.start, 5)]
+def _search(obj: "_Objective", theta, values, current, rng):
+    """One alternating pose / shape search (:func:`fit_shape`'s rounds) from ``theta``: the best
+    theta, body, poses and score (prior included), and the score after each round."""
+    s = obj.s
+    history = []
+    best_score = -np.inf
     for r in range(s.rounds):
         current = obj.refine_poses(values, current)
         poses = [fr.particles for fr in current]
@@ -394,6 +387,39 @@ def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, lim
                 current = [fr._replace(particles=p[i]) for fr, p in zip(current, placed)]
                 poses = [fr.particles for fr in current]
         history.append(round(best_score, 5))
+    return theta, values, current, best_score, history
+
+
+def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, limits: Limits, *,
+              height_m: float | None = None, settings: ShapeFitSettings = ShapeFitSettings(),
+              seed: int = 0) -> ShapeFitResult:
+    """Fit the body's group factors and the frames' poses together (module doc).
+
+    frames : K >= 1 frames with their scorers and starting poses (M_k, D).
+    reference : the shape theta = 0 stands for.  height_m : standing height to hold, or None.
+    Returns the fitted shape (``height_m`` = its standing height), the frames' refined poses,
+    the likelihood evaluations and seconds spent, and a record for run.json.
+    """
+    require(len(frames) >= 1, "the shape fit needs at least one frame")
+    t0 = time.perf_counter()
+    s = settings
+    rng = np.random.default_rng(seed)
+    obj = _Objective(frames, reference, U, limits, height_m, settings)
+    theta, values, current = obj.starting_point()
+    obj.start = float(obj.score(values[None], [fr.particles for fr in current], values)[0][0])
+    history = [round(obj.start, 5)]
+    found = [_search(obj, theta, values, current, rng if k == 0 else np.random.default_rng((seed, k)))
+             for k in range(s.searches)]
+    if len(found) == 1:
+        theta, values, current, best, hist = found[0]
+    else:  # the searches' bodies averaged (log factors); the best search's poses carried over
+        theta, values, current, best, hist = max(found, key=lambda f: f[3])
+        base = values
+        values = obj.body(np.mean([f[0] for f in found], 0))
+        theta = log_factors(values, obj.ref)
+        _, placed = obj.score(values[None], [fr.particles for fr in current], base)
+        current = [fr._replace(particles=p[0]) for fr, p in zip(current, placed)]
+    history += hist
     current = obj.refine_poses(values, current)
     history.append(round(float(obj.score(values[None], [fr.particles for fr in current], values)[0][0]), 5))
     seconds = time.perf_counter() - t0
