@@ -69,8 +69,10 @@ def main():
         def call():
             s.counts(scene.particles, obs)
     else:
-        def call():
-            jax.block_until_ready(s.geometry(scene.particles, cuts=cuts)[0])
+        def call():  # each call writes into the last one's records, as Scorer.counts runs it
+            recs = s.geometry(scene.particles, cuts=cuts)[0]
+            jax.block_until_ready(recs)
+            s._recycle(cuts, recs, s.q)
     for _ in range(3):  # compiled, loaded, windows settled
         call()
     walls = []

@@ -153,8 +153,8 @@ def _active() -> bool:
 
 
 class Program:
-    """``jax.jit(fn, static_argnames=static, compiler_options=options)`` whose lowerings are kept
-    on disk (module doc). Called like that jit: array arguments (pytrees of arrays) by position,
+    """``jax.jit(fn, static_argnames=static, compiler_options=options, donate_argnums=donate)``
+    whose lowerings are kept on disk (module doc). Called like that jit: array arguments (pytrees of arrays) by position,
     then the static ones (``fn``'s last parameters) by position or keyword.
 
     It is itself a jit (dispatch at the speed of JAX's own cache) of a function that runs only
@@ -168,19 +168,22 @@ class Program:
     Under :func:`jax.vmap` use the plain jit (``call_exported`` has no batching rule); inside another
     program call ``fn``, the function itself, so it is traced into that program."""
 
-    def __init__(self, fn, static_argnames: tuple[str, ...] = (), compiler_options: dict | None = None):
+    def __init__(self, fn, static_argnames: tuple[str, ...] = (), compiler_options: dict | None = None,
+                 donate_argnums: tuple[int, ...] = ()):
         self.fn = fn
         self.static_argnames = tuple(static_argnames)
         self.compiler_options = dict(compiler_options or {})
         opts = self.compiler_options or None
-        self._jit = jax.jit(fn, static_argnames=self.static_argnames, compiler_options=opts)
+        donate = tuple(donate_argnums)
+        self._jit = jax.jit(fn, static_argnames=self.static_argnames, compiler_options=opts,
+                            donate_argnums=donate)
 
         def traced(*args, **static):  # a function of its own: a jit cache per program
             return self._traced(*args, **static)
 
         functools.update_wrapper(traced, fn)
         self._via_disk = jax.jit(traced, static_argnames=self.static_argnames,
-                                 compiler_options=opts)
+                                 compiler_options=opts, donate_argnums=donate)
         self._params = list(inspect.signature(fn).parameters)
         self._first_static = min([self._params.index(n) for n in self.static_argnames] or [len(self._params)])
         if not set(self._params[self._first_static:]) <= set(self.static_argnames):

@@ -122,6 +122,30 @@ def test_threads_run_halved_blocks_side_by_side_with_the_same_counts(scene):
         Scorer(cams, SHAPE, U, threads=0)
 
 
+def test_a_call_writes_its_records_into_the_last_calls_buffers(scene):
+    """The geometry program writes a block's records into a finished call's buffers, given to it
+    (donated: no new set filled with zeros for its loop); the counts are a fresh scorer's, and
+    the buffers it was given are gone (XLA used them, JAX warned of none it could not use)."""
+    import warnings
+
+    import jax
+
+    cams, q, masks, particles = scene
+    scorer = Scorer(cams, SHAPE, U, chunk=8, block=4, threads=2)
+    obs = [make_observation(list(masks[f])) for f in (1, 2)]
+    scorer.counts(particles, obs[0])
+    # 40 particles in chunks of 8: a block of 4 chunks cut into 2 parts (threads), then 1 chunk
+    assert sorted((k, len(v)) for (k, b, _), v in scorer._spare.items()) == [(1, 1), (2, 2)]
+    spare = [rec for recs in scorer._spare.values() for rec in recs]
+    moved = particles[::-1] + 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # "Some donated buffers were not usable" would raise
+        got = scorer.counts(moved, obs[1])
+    assert all(leaf.is_deleted() for rec in spare for leaf in jax.tree.leaves(rec))
+    np.testing.assert_array_equal(got, Scorer(cams, SHAPE, U, chunk=8, block=4, threads=2).counts(
+        moved, obs[1]))
+
+
 def test_reset_windows_sizes_them_to_the_next_call(scene):
     """After a wide search the tracker forgets its window sizes: the next call's own need sets
     them (smaller than the wide cloud's), and the counts are those of the whole image."""
@@ -322,7 +346,8 @@ def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
     bodies = (np.asarray(SHAPE.values, np.float32) * rng.uniform(0.9, 1.1, (5, 8, len(SHAPE.values)))
               ).astype(np.float32)
     for sv in (np.asarray(SHAPE.values, np.float32), bodies):
-        recs, ext = sc._geometry_calls_jit(block, sv, s.up, s.cams, long_side=s.long_side, scan_q=s.q)
+        recs, ext = sc._geometry_calls_jit(block, sv, s.up, s.cams, None, long_side=s.long_side,
+                                           scan_q=s.q)
         ones = [sc._geometry_jit(block[k], sv if sv.ndim == 1 else sv[k], s.up, s.cams,
                                  long_side=s.long_side, scan_q=s.q) for k in range(5)]
         for k, (rec_k, ext_k) in enumerate(ones):

@@ -71,7 +71,7 @@ from ..geometry.camera import (
     stack_cameras,
 )
 from ..geometry.capsule2d import outline_fields
-from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
+from ..geometry.kinematics import CAPSULE_ENDS, SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from ..lowered import Program, register_namedtuple
 from .raster import (
     WORD,
@@ -300,26 +300,64 @@ for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple argumen
     register_namedtuple(_t)
 
 
-def _geometry_calls_impl(q, shape_values, up, cams, long_side, scan_q):
+def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     """Stage 1 for K chunks in one program: (K, B, D) particles -> per camera the records of
     :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
     ``shape_values`` (P,) or (K, B, P).
 
     The forward kinematics and the projection of the capsule ends run on all K x B particles at
     once (their arrays are small, and per chunk their many short loops cost more to start than to
-    run); the records, extents and row coefficients chunk by chunk (``lax.map``), each on a
-    chunk's working set (over a whole block of 4 cameras they left the caches and ran 1.6x slower).
-    Every number is the one K calls of :func:`_geometry_impl` give (docs/benchmarks.md)."""
+    run); the records, extents and row coefficients chunk by chunk, each on a chunk's working set
+    (over a whole block of 4 cameras they left the caches and ran 1.6x slower). Every number is
+    the one K calls of :func:`_geometry_impl` give (docs/benchmarks.md).
+
+    ``outs``: buffers of the records to write the chunks into (:func:`record_buffers`; the
+    program is called with them donated: a finished call's records, so XLA does not fill a new
+    set with zeros for its loop first, a fifth of the stage's kernel time: docs/benchmarks.md),
+    or None (new ones)."""
     q_t = jnp.moveaxis(q, -1, 0)  # (D, K, B)
     sv = shape_values if shape_values.ndim == 1 else jnp.moveaxis(shape_values, -1, 0)
     proj = projected_ends(q_t, sv, up, cams)  # (K, C, E, B) each
     radii = sv[SEGMENT_RADII]  # (S, 2) or (S, 2, K, B)
-    if radii.ndim == 2:
-        recs, ext = jax.lax.map(lambda p: _records(p, radii, cams, long_side, scan_q), proj)
-    else:
-        recs, ext = jax.lax.map(lambda a: _records(a[0], a[1], cams, long_side, scan_q),
-                                (proj, jnp.moveaxis(radii, 2, 0)))
-    return recs, box_union(jnp, ext, 0)
+    per_chunk = radii.ndim > 2
+    if per_chunk:
+        radii = jnp.moveaxis(radii, 2, 0)  # (K, S, 2, B)
+
+    def chunk(k):
+        return _records(jax.tree.map(lambda a: a[k], proj), radii[k] if per_chunk else radii,
+                        cams, long_side, scan_q)
+
+    if outs is None:
+        one = jax.eval_shape(chunk, 0)[0]
+        outs = jax.tree.map(lambda a: jnp.zeros((q.shape[0],) + a.shape, a.dtype), one)
+
+    def step(k, carry):
+        outs, union = carry
+        rec, ext = chunk(k)
+        outs = jax.tree.map(lambda o, x: jax.lax.dynamic_update_index_in_dim(o, x, k, 0), outs, rec)
+        return outs, box_union(jnp, jnp.stack([union, ext]), 0)
+
+    inf = np.float32(np.inf)
+    empty = jnp.broadcast_to(jnp.array([inf, -inf, inf, -inf]), (len(cams.K), len(SEGMENT_ENDS), 4))
+    return jax.lax.fori_loop(0, q.shape[0], step, (outs, empty))
+
+
+@functools.lru_cache(maxsize=None)
+def _record_layout(b: int, n_cams: int, scan_q: int):
+    """Shapes and dtypes of one chunk's per-camera records (:func:`_records`)."""
+    cams = CameraArrays(*(np.zeros((n_cams,) + s, np.float32) for s in ((3, 3), (5,), (3, 3), (3,), ())))
+    proj = tuple(jax.ShapeDtypeStruct((n_cams, len(CAPSULE_ENDS), b), np.float32) for _ in range(4))
+    radii = jax.ShapeDtypeStruct(SEGMENT_RADII.shape, np.float32)
+    return jax.eval_shape(lambda p, r: _records(p, r, cams, 1, scan_q)[0], proj, radii)
+
+
+def record_buffers(k: int, b: int, n_cams: int, scan_q: int, device=None) -> tuple:
+    """Zeroed buffers of the per-camera records of a block of K chunks of B particles (the layout
+    :func:`_geometry_calls_impl` writes), for its first call; later calls reuse a finished call's.
+    ``device``: placed there (committed, as a call's results are: the program is then not traced
+    again for the buffers it gets back)."""
+    zeros = jax.tree.map(lambda a: jnp.zeros((k,) + a.shape, a.dtype), _record_layout(b, n_cams, scan_q))
+    return zeros if device is None else jax.device_put(zeros, device)
 
 
 def _counts_impl(recs, rows, sil_words, row0, word0, win_rows, win_words, height, width, q,
@@ -348,7 +386,8 @@ def _counts_impl(recs, rows, sil_words, row0, word0, win_rows, win_words, height
 
 
 #: The measure step's two programs (:meth:`Scorer.counts`).
-_geometry_calls_jit = _compiled(_geometry_calls_impl, "long_side", "scan_q")
+_geometry_calls_jit = Program(_geometry_calls_impl, ("long_side", "scan_q"), COMPILER_OPTIONS,
+                              donate_argnums=(4,))
 _counts_jit = _compiled(_counts_impl, "q", "long_side", "sizes", "dense")
 #: Each stage alone on one chunk (:meth:`Scorer.stages`: profiles and benchmarks).
 _geometry_jit = _compiled(_geometry_impl, "long_side", "scan_q")
@@ -538,6 +577,7 @@ class Scorer:
         devices = list(jax.local_devices() if devices is None else devices)
         self.chunk = -(-int(chunk) // len(devices)) * len(devices)
         self._devices = len(devices)
+        self._device = devices[0]
         self._small: list[int] = []  # :meth:`set_small_chunks`
         # one device: plain arrays; several: the particle axis is split across them (GSPMD)
         mesh = Mesh(np.array(devices), ("particles",)) if len(devices) > 1 else None
@@ -548,6 +588,7 @@ class Scorer:
         self._need: np.ndarray | None = None  # (C, 4) largest sizes asked since :meth:`new_frame`
         self._recent: collections.deque = collections.deque(maxlen=SHRINK_FRAMES)  # the last frames' needs
         self.evaluations = 0  # particles scored so far (likelihood evaluations)
+        self._spare: dict = {}  # (K, B, scan_q) -> finished calls' record buffers (:meth:`_recycle`)
 
     def set_shape(self, shape: BodyShape) -> None:
         self.shape = shape
@@ -623,19 +664,39 @@ class Scorer:
         particles = np.asarray(particles)
         scan_q = self.q if (kernel or self.kernel) == "scanline" else 0
 
-        def call(cut):
-            start, take, k, b = cut
+        cuts = cuts or self._blocks(len(particles))
+        outs = [self._buffers(k, b, scan_q) for _, _, k, b in cuts]  # here: one thread takes them
+
+        def call(item):
+            (start, take, k, b), out = item
             block = self._put(self._block(particles, start, take, k, b), True)
             body = (self._put(self.shape_values) if shapes is None
                     else self._put(self._block(shapes, start, take, k, b), True))
-            return _geometry_calls_jit(block, body, self.up, self.cams, long_side=self.long_side,
-                                       scan_q=scan_q)
+            return _geometry_calls_jit(block, body, self.up, self.cams, out,
+                                       long_side=self.long_side, scan_q=scan_q)
 
-        done = self._run(call, lambda res: (res[0], np.asarray(res[1])),
-                         cuts or self._blocks(len(particles)))
+        done = self._run(call, lambda res: (res[0], np.asarray(res[1])), list(zip(cuts, outs)))
         recs = [rec for rec, _ in done]
         union = box_union(np, np.stack([ext for _, ext in done]).astype(np.int64), 0)
         return recs, union
+
+    def _buffers(self, k: int, b: int, scan_q: int):
+        """Buffers for a block's records: a finished call's (:meth:`_recycle`), else new ones."""
+        spare = self._spare.get((k, b, scan_q))
+        if spare:
+            return spare.pop()
+        return record_buffers(k, b, len(self.cameras), scan_q, None if self._split else self._device)
+
+    def _recycle(self, cuts: list, recs: list, scan_q: int) -> None:
+        """Keep a finished call's record buffers for the next calls of the same blocks (at most
+        :attr:`threads` sets per block size). With several devices none are kept: a buffer's
+        sharding is the program's choice, and reusing it would trace the program again."""
+        if self._split is not None:
+            return
+        for (_, _, k, b), rec in zip(cuts, recs):
+            spare = self._spare.setdefault((k, b, scan_q), [])
+            if len(spare) < self.threads:
+                spare.append(rec)
 
     def _run(self, call, read, items) -> list:
         """``[read(call(x)) for x in items]``: ``call`` dispatches a compiled program, ``read``
@@ -767,8 +828,14 @@ class Scorer:
         if k > 1:
             name = f"geometry, block of {k}"
             chunks[name] = k
-            out[name] = lambda: _geometry_calls_jit(whole, self.shape_values, self.up, self.cams,
-                                                    long_side=self.long_side, scan_q=self.q)
+            held = [record_buffers(k, b, len(self.cameras), self.q, self._device)]
+
+            def block_call():  # each call writes into the last one's buffers, as counts runs it
+                held[0], ext = _geometry_calls_jit(whole, self.shape_values, self.up, self.cams,
+                                                   held[0], long_side=self.long_side, scan_q=self.q)
+                return held[0], ext
+
+            out[name] = block_call
         for c in range(len(self.cameras)):
             # the first chunk's records (the K axis of the first block dropped)
             rc, cap = jax.tree.map(lambda a: a[0], (caps[0][c], dense_caps[0][c]))
@@ -834,8 +901,10 @@ class Scorer:
             out[start:start + take, c] = np.asarray(counts).reshape(-1, 2)[:take]
 
         self._run(call, read, [(i, c) for i in range(len(cuts)) for c in range(len(self.cameras))])
-        # the device buffers are released here (dropped by the caller they cost it ~1 ms a frame,
-        # a part of this step that looked like its own)
+        # the records' buffers are kept for the next call's geometry (donated to it); the other
+        # device buffers are released here (dropped by the caller they cost it ~1 ms a frame, a
+        # part of this step that looked like its own)
+        self._recycle(cuts, recs, 0 if dense else self.q)
         recs = per_cam = None
         self.evaluations += len(particles)
         nc, nm_total = out[..., 0], out[..., 1]
