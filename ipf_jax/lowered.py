@@ -154,8 +154,10 @@ def _active() -> bool:
 
 class Program:
     """``jax.jit(fn, static_argnames=static, compiler_options=options, donate_argnums=donate)``
-    whose lowerings are kept on disk (module doc). Called like that jit: array arguments (pytrees of arrays) by position,
-    then the static ones (``fn``'s last parameters) by position or keyword.
+    whose lowerings are kept on disk (module doc). Called like that jit: array arguments (pytrees
+    of arrays) by position, then the static ones (``fn``'s last parameters) by position or
+    keyword; the donated arguments' buffers are the program's to reuse (a donated array is
+    deleted by the call, also through the exported module: its call is traced into the jit).
 
     It is itself a jit (dispatch at the speed of JAX's own cache) of a function that runs only
     when that jit traces a new signature: it reads the signature's exported module, or exports
