@@ -351,12 +351,20 @@ def _record_layout(b: int, n_cams: int, scan_q: int):
     return jax.eval_shape(lambda p, r: _records(p, r, cams, 1, scan_q)[0], proj, radii)
 
 
+@functools.lru_cache(maxsize=None)
+def _zeros_program(k: int, b: int, n_cams: int, scan_q: int):
+    """One compiled call that makes a whole set of zeroed record buffers (one dispatch, not one
+    per buffer)."""
+    layout = _record_layout(b, n_cams, scan_q)
+    return jax.jit(lambda: jax.tree.map(lambda a: jnp.zeros((k,) + a.shape, a.dtype), layout))
+
+
 def record_buffers(k: int, b: int, n_cams: int, scan_q: int, device=None) -> tuple:
     """Zeroed buffers of the per-camera records of a block of K chunks of B particles (the layout
     :func:`_geometry_calls_impl` writes), for its first call; later calls reuse a finished call's.
     ``device``: placed there (committed, as a call's results are: the program is then not traced
     again for the buffers it gets back)."""
-    zeros = jax.tree.map(lambda a: jnp.zeros((k,) + a.shape, a.dtype), _record_layout(b, n_cams, scan_q))
+    zeros = _zeros_program(k, b, n_cams, scan_q)()
     return zeros if device is None else jax.device_put(zeros, device)
 
 
@@ -589,6 +597,7 @@ class Scorer:
         self._recent: collections.deque = collections.deque(maxlen=SHRINK_FRAMES)  # the last frames' needs
         self.evaluations = 0  # particles scored so far (likelihood evaluations)
         self._spare: dict = {}  # (K, B, scan_q) -> finished calls' record buffers (:meth:`_recycle`)
+        self._spare_cap: dict = {}  # (K, B, scan_q) -> most sets a call has used
 
     def set_shape(self, shape: BodyShape) -> None:
         self.shape = shape
@@ -681,21 +690,33 @@ class Scorer:
         return recs, union
 
     def _buffers(self, k: int, b: int, scan_q: int):
-        """Buffers for a block's records: a finished call's (:meth:`_recycle`), else new ones."""
+        """Buffers for a block's records: a finished call's (:meth:`_recycle`), else new ones;
+        None for a call of one chunk, whose program makes its own (kept, the factored filter's
+        calls of one chunk each ran 5 % slower: docs/benchmarks.md)."""
+        if k == 1:
+            return None
         spare = self._spare.get((k, b, scan_q))
         if spare:
             return spare.pop()
         return record_buffers(k, b, len(self.cameras), scan_q, None if self._split else self._device)
 
     def _recycle(self, cuts: list, recs: list, scan_q: int) -> None:
-        """Keep a finished call's record buffers for the next calls of the same blocks (at most
-        :attr:`threads` sets per block size). With several devices none are kept: a buffer's
-        sharding is the program's choice, and reusing it would trace the program again."""
+        """Keep a finished call's record buffers for the next calls of the same blocks: every set
+        it used, so a call like it takes them all again (the factored filter's calls of 648
+        particles are 3 blocks of one chunk each; making a set anew costs more than the zeros
+        the donation saves). At most as many sets per block size as a call has used. With
+        several devices none are kept: a buffer's sharding is the program's choice, and reusing
+        it would trace the program again."""
         if self._split is not None:
             return
+        used = collections.Counter((k, b, scan_q) for _, _, k, b in cuts)
+        for key, n in used.items():
+            self._spare_cap[key] = max(self._spare_cap.get(key, 0), n)
         for (_, _, k, b), rec in zip(cuts, recs):
+            if k == 1:
+                continue
             spare = self._spare.setdefault((k, b, scan_q), [])
-            if len(spare) < self.threads:
+            if len(spare) < self._spare_cap[(k, b, scan_q)]:
                 spare.append(rec)
 
     def _run(self, call, read, items) -> list:
