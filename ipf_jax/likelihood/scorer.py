@@ -691,8 +691,8 @@ class Scorer:
 
     def _buffers(self, k: int, b: int, scan_q: int):
         """Buffers for a block's records: a finished call's (:meth:`_recycle`), else new ones;
-        None for a call of one chunk, whose program makes its own (kept, the factored filter's
-        calls of one chunk each ran 5 % slower: docs/benchmarks.md)."""
+        None for a call of one chunk, whose program makes its own (given buffers, the factored
+        filter's calls of one chunk each ran 0.92-0.97x: docs/benchmarks.md)."""
         if k == 1:
             return None
         spare = self._spare.get((k, b, scan_q))
@@ -701,12 +701,11 @@ class Scorer:
         return record_buffers(k, b, len(self.cameras), scan_q, None if self._split else self._device)
 
     def _recycle(self, cuts: list, recs: list, scan_q: int) -> None:
-        """Keep a finished call's record buffers for the next calls of the same blocks: every set
-        it used, so a call like it takes them all again (the factored filter's calls of 648
-        particles are 3 blocks of one chunk each; making a set anew costs more than the zeros
-        the donation saves). At most as many sets per block size as a call has used. With
-        several devices none are kept: a buffer's sharding is the program's choice, and reusing
-        it would trace the program again."""
+        """Keep a finished call's record buffers (blocks of several chunks) for the next calls
+        of the same blocks: every set it used, so a call like it takes them all again (making a
+        set anew costs more than the zeros the donation saves), at most as many sets per block
+        size as a call has used. With several devices none are kept: a buffer's sharding is the
+        program's choice, and reusing it would trace the program again."""
         if self._split is not None:
             return
         used = collections.Counter((k, b, scan_q) for _, _, k, b in cuts)
