@@ -328,8 +328,7 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
                         cams, long_side, scan_q)
 
     if outs is None:
-        one = jax.eval_shape(chunk, 0)[0]
-        outs = jax.tree.map(lambda a: jnp.zeros((q.shape[0],) + a.shape, a.dtype), one)
+        outs = _zero_records(q.shape[0], _record_layout(q.shape[1], cams.K.shape[0], scan_q))
 
     def step(k, carry):
         outs, union = carry
@@ -351,12 +350,17 @@ def _record_layout(b: int, n_cams: int, scan_q: int):
     return jax.eval_shape(lambda p, r: _records(p, r, cams, 1, scan_q)[0], proj, radii)
 
 
+def _zero_records(k: int, layout):
+    """Zeroed records of K chunks of ``layout`` (:func:`_record_layout`)."""
+    return jax.tree.map(lambda a: jnp.zeros((k,) + a.shape, a.dtype), layout)
+
+
 @functools.lru_cache(maxsize=None)
 def _zeros_program(k: int, b: int, n_cams: int, scan_q: int):
     """One compiled call that makes a whole set of zeroed record buffers (one dispatch, not one
     per buffer)."""
     layout = _record_layout(b, n_cams, scan_q)
-    return jax.jit(lambda: jax.tree.map(lambda a: jnp.zeros((k,) + a.shape, a.dtype), layout))
+    return jax.jit(lambda: _zero_records(k, layout))
 
 
 def record_buffers(k: int, b: int, n_cams: int, scan_q: int, device=None) -> tuple:
@@ -708,14 +712,12 @@ class Scorer:
         program's choice, and reusing it would trace the program again."""
         if self._split is not None:
             return
-        used = collections.Counter((k, b, scan_q) for _, _, k, b in cuts)
-        for key, n in used.items():
+        kept = [((k, b, scan_q), rec) for (_, _, k, b), rec in zip(cuts, recs) if k > 1]
+        for key, n in collections.Counter(key for key, _ in kept).items():
             self._spare_cap[key] = max(self._spare_cap.get(key, 0), n)
-        for (_, _, k, b), rec in zip(cuts, recs):
-            if k == 1:
-                continue
-            spare = self._spare.setdefault((k, b, scan_q), [])
-            if len(spare) < self._spare_cap[(k, b, scan_q)]:
+        for key, rec in kept:
+            spare = self._spare.setdefault(key, [])
+            if len(spare) < self._spare_cap[key]:
                 spare.append(rec)
 
     def _run(self, call, read, items) -> list:

@@ -410,13 +410,10 @@ def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, lim
     history = [round(obj.start, 5)]
     found = [_search(obj, theta, values, current, rng if k == 0 else np.random.default_rng((seed, k)))
              for k in range(s.searches)]
-    if len(found) == 1:
-        theta, values, current, best, hist = found[0]
-    else:  # the searches' bodies averaged (log factors); the best search's poses carried over
-        theta, values, current, best, hist = max(found, key=lambda f: f[3])
+    _, values, current, _, hist = max(found, key=lambda f: f[3])
+    if len(found) > 1:  # the searches' bodies averaged (log factors); the best one's poses carried
         base = values
         values = obj.body(np.mean([f[0] for f in found], 0))
-        theta = log_factors(values, obj.ref)
         _, placed = obj.score(values[None], [fr.particles for fr in current], base)
         current = [fr._replace(particles=p[0]) for fr, p in zip(current, placed)]
     history += hist
