@@ -4,7 +4,9 @@
 
 Times, on the fixed bench scene (see ``ipf_jax.profiling``), one chunk through each stage of the
 scorer (geometry for all cameras; then, per camera, the row intervals, the words/popcount, and the
-dense kernel's intervals), with ``block_until_ready`` and the median of repeats, in wall and
+dense kernel's intervals; with ``--chunk 0`` also the tracker's block program, with and without
+the row coefficients it now computes for the row stage: "records only" is the work the stage did
+in revisions before them), with ``block_until_ready`` and the median of repeats, in wall and
 process-CPU seconds per particle (:func:`ipf_jax.profiling.stage_timings`). The sum of the stages is
 the ceiling of the whole measure step at that chunk size; the rest is host work (window plan,
 transfers, weights).
@@ -35,16 +37,16 @@ def main():
     chunk = res["chunk"]
     print(f"{args.width}x{scene.masks[0].shape[0]}, {args.cameras} camera(s), chunk {chunk}, "
           f"sizes {res['sizes']}, device {jax.devices()[0].device_kind}, jax {jax.__version__}")
-    print(f"{'stage':28s} {'us/particle wall':>17s} {'us/particle cpu':>16s} {'particles/s':>12s}")
+    print(f"{'stage':36s} {'us/particle wall':>17s} {'us/particle cpu':>16s} {'particles/s':>12s}")
     scanline_sum = 0.0
     for name, (wall, cpu) in res["stages"].items():
-        if not name.startswith("dense"):
+        if not name.startswith(("dense", "geometry,")):  # one chunk through each scanline stage
             scanline_sum += wall / chunk
-        print(f"{name:28s} {wall / chunk * 1e6:17.2f} {cpu / chunk * 1e6:16.2f} {chunk / wall:12.0f}")
+        print(f"{name:36s} {wall / chunk * 1e6:17.2f} {cpu / chunk * 1e6:16.2f} {chunk / wall:12.0f}")
     n = len(scene.particles)
     wall, cpu = res["whole"]
-    print(f"{'sum of scanline stages':28s} {scanline_sum * 1e6:17.2f} {'':16s} {1 / scanline_sum:12.0f}")
-    print(f"{'Scorer.counts (whole)':28s} {wall / n * 1e6:17.2f} {cpu / n * 1e6:16.2f} {n / wall:12.0f}")
+    print(f"{'sum of scanline stages':36s} {scanline_sum * 1e6:17.2f} {'':16s} {1 / scanline_sum:12.0f}")
+    print(f"{'Scorer.counts (whole)':36s} {wall / n * 1e6:17.2f} {cpu / n * 1e6:16.2f} {n / wall:12.0f}")
 
 
 if __name__ == "__main__":

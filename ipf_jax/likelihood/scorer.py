@@ -834,7 +834,8 @@ class Scorer:
         """Each compiled stage as ``(call, chunks)``, a zero-argument call on the first chunk of
         ``particles`` (``chunks`` 1) for profiling (:func:`ipf_jax.profiling.stage_timings`):
         ``geometry`` (all cameras; and, when ``particles`` fill a block of K chunks, the block's
-        program as :meth:`counts` runs it, ``chunks`` K), then per camera ``intervals cam K``,
+        program as :meth:`counts` runs it, ``chunks`` K, and the same program with records only,
+        without the row coefficients), then per camera ``intervals cam K``,
         ``words cam K`` and ``dense intervals cam K``. The windows are planned for ``particles``
         first, as :meth:`counts` does."""
         caps, ext = self.geometry(particles, kernel="scanline")
@@ -847,14 +848,17 @@ class Scorer:
             block, self.shape_values, self.up, self.cams, long_side=self.long_side,
             scan_q=self.q)}
         chunks = {}  # calls of several chunks: the block's program, as the tracker runs it
-        if k > 1:
-            name = f"geometry, block of {k}"
+        # and with records only: the capsule records and extents without the quantisation and
+        # row coefficients, which the row stage did before they moved here (the stage's work of
+        # older revisions, so the stage can be compared with theirs like for like)
+        blocks = ((f"geometry, block of {k}", self.q), (f"geometry, block of {k}, records only", 0))
+        for name, q in blocks if k > 1 else ():
             chunks[name] = k
-            held = [record_buffers(k, b, len(self.cameras), self.q, self._device)]
+            held = [record_buffers(k, b, len(self.cameras), q, self._device)]
 
-            def block_call():  # each call writes into the last one's buffers, as counts runs it
+            def block_call(held=held, q=q):  # into the last call's buffers, as counts runs it
                 held[0], ext = _geometry_calls_jit(whole, self.shape_values, self.up, self.cams,
-                                                   held[0], long_side=self.long_side, scan_q=self.q)
+                                                   held[0], long_side=self.long_side, scan_q=q)
                 return held[0], ext
 
             out[name] = block_call
