@@ -4,6 +4,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from ipf_jax.geometry.capsule2d import capsule_outline
 from ipf_jax.likelihood.model_mask import model_mask
@@ -132,6 +134,40 @@ def test_extent_bounds_every_pixel_even_after_guard_band_clipping():
         rows, cols = np.nonzero(model_mask(rec[None], h, w))
         if len(rows):
             assert r0 <= rows.min() and rows.max() <= r1 and c0 <= cols.min() and cols.max() <= c1
+
+
+_H, _W = 40, 56
+_L = max(_H, _W)
+_coord = st.floats(-3.0 * _L, 4.0 * _L, width=32)
+_radius = st.one_of(st.floats(0.0, 8.0, width=32), st.floats(0.0, 4.0 * _L, width=32))
+
+
+@settings(max_examples=150, deadline=None)
+# an upright capsule wider than the image, centred right of it: its discs, clipped to a radius of
+# the long side, start at column 21; its quad, its corners clipped to the guard band, covers
+# columns 0-20 too (a box of the discs alone misses them)
+@example(x0=78.4, y0=0.0, r0=112.0, dx=0.0, dy=40.0, r1=112.0)
+@given(x0=_coord, y0=_coord, r0=_radius, dx=st.floats(-_L, _L, width=32), dy=st.floats(-_L, _L, width=32),
+       r1=_radius)
+def test_the_box_bounds_every_pixel_of_any_capsule_and_is_tight_inside(x0, y0, r0, dx, dy, r1):
+    """The extent holds every pixel of the quantised capsule wherever it is and however the guard
+    band clips it (far outside, radii beyond the image), and for a capsule inside the image, of
+    discs a pixel wide or more, it is within 3 pixels of the pixels' own box (the one-pixel margin,
+    rounding up, and the pixel centres inside the edge): windows hold everything, and not much
+    more."""
+    rec = capsule_outline(np, np.array([x0, y0]), np.float64(r0), np.array([x0 + dx, y0 + dy]),
+                          np.float64(r1), np.True_).astype(np.float32)
+    r_lo, r_hi, c_lo, c_hi = segment_extent(np, rec[None], _L)[0]
+    rows, cols = np.nonzero(model_mask(rec[None], _H, _W))
+    if not len(rows):
+        return
+    assert r_lo <= rows.min() and rows.max() <= r_hi and c_lo <= cols.min() and cols.max() <= c_hi
+    xs, ys, rs = rec[[0, 3]], rec[[1, 4]], rec[[2, 5]]
+    inside = (np.all(xs - rs >= 0) and np.all(xs + rs <= _W - 1) and np.all(ys - rs >= 0)
+              and np.all(ys + rs <= _H - 1))
+    if inside and np.all(rs >= 1):  # discs of a pixel or more reach within a pixel of their edge
+        assert rows.min() - r_lo <= 3 and r_hi - rows.max() <= 3
+        assert cols.min() - c_lo <= 3 and c_hi - cols.max() <= 3
 
 
 @pytest.mark.parametrize("kernel", ["scanline", "dense"])
