@@ -492,6 +492,45 @@ def _anneal_beta_by_definition(likelihood, target, iters=64):
     return 0.5 * (lo + hi)
 
 
+def _likelihoods(rng, n, kind):
+    """Likelihoods of several shapes, some dead: powers of uniforms, a narrow band, exponentials,
+    and ties at the maximum."""
+    if kind == 0:
+        lk = rng.uniform(0, 1, n) ** rng.uniform(0.1, 300)
+    elif kind == 1:
+        lk = rng.uniform(0.4, 0.9, n)
+    elif kind == 2:
+        lk = np.exp(-rng.exponential(rng.uniform(0.001, 50), n))
+    else:
+        lk = rng.uniform(0.5, 0.6, n)
+        lk[rng.random(n) < 0.3] = 0.6
+    lk[rng.random(n) < rng.uniform(0, 0.5)] = 0.0
+    return lk
+
+
+@pytest.mark.parametrize("kind", [0, 1, 2, 3])
+def test_beta_search_skipping_what_its_bracket_decides_is_the_full_bisection(kind):
+    """Midpoints outside the regula falsi's bracket are decided without an evaluation: the same
+    beta to the last bit as the bisection evaluating every one."""
+    for seed in range(12):
+        rng = np.random.default_rng(100 * kind + seed)
+        lk = _likelihoods(rng, int(rng.choice([3, 100, 4000, 6561])), kind)
+        for target in (0.05, 0.5, 0.95):
+            want = _anneal_beta_by_definition(lk, target) if (lk > 0).any() else 0.0
+            assert apf.anneal_beta(lk, target) == want
+
+
+def test_beta_search_evaluates_fewer_fractions_than_the_bisection(monkeypatch):
+    """A layer's likelihoods (4000 in a narrow band, as silhouette scores are): the bisection
+    alone evaluates the fraction 57 times; with the bracket at most 40."""
+    lk = np.random.default_rng(0).uniform(0.5, 0.8, 4000) ** 3
+    calls, real = [], apf.effective_fraction
+    monkeypatch.setattr(apf, "effective_fraction", lambda w, s=None: calls.append(1) or real(w, s))
+    beta = apf.anneal_beta(lk, 0.5)
+    assert len(calls) <= 40
+    assert beta == _anneal_beta_by_definition(lk, 0.5)
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_beta_search_stopping_at_its_fixed_point_is_the_full_bisection(seed):
     rng = np.random.default_rng(seed)
