@@ -262,6 +262,37 @@ def test_two_searches_give_the_mean_of_their_bodies():
     assert np.allclose(one.shape.values, a[1])
     assert np.allclose(two.shape.values, obj.body((a[0] + b[0]) / 2))
     assert two.evaluations > one.evaluations
+    # every fitted frame's best pose and its weight with the fitted body, as recorded
+    rec = one.doc["frame_poses"]
+    assert [r["frame"] for r in rec] == [0, 1]
+    for r, fr in zip(rec, one.frames):
+        assert np.allclose(r["pose"], fr.particles[0], atol=1e-6)
+        assert r["weight"] == pytest.approx(measure(fr.particles[:1], one.shape.values[None])[0], abs=1e-6)
+    json.dumps(one.doc, allow_nan=False)
+
+
+def test_the_pose_search_weighs_its_start_with_the_current_body():
+    """The kept poses carry the weights of the body they were found with; the compass search
+    compares its steps with its start's weight, so it weighs the start again with the body it
+    searches for. With a stale weight above every step's, no step would be taken."""
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.tracking.shape_fit import _Objective
+
+    template = default_shape(1.75)
+    want = place_on_floor(gait_pose(20, 10, -5, 5), template.values, U)
+
+    def measure(q, shapes):  # prefers the pose `want`, whatever the body
+        return 1.0 - ((np.asarray(q)[:, 3:] - want[3:]) ** 2).sum(1)
+
+    q0 = place_on_floor(gait_pose(10, 20, -5, 5), template.values, U)[None]
+    stale = np.array([5.0])  # a weight no pose reaches: found with another body
+    frames = [FramePoses(0, measure, q0, stale)]
+    settings = ShapeFitSettings(pose_keep=1, pose_sweeps=2)
+    obj = _Objective(frames, template, U, load_limits("default"), None, settings)
+    out = obj.refine_poses(template.values, frames)[0]
+    assert out.weights[0] == pytest.approx(measure(out.particles[:1], None)[0])
+    assert out.weights[0] > measure(q0, None)[0]  # it moved towards `want`
+    assert obj.evaluations > 1
 
 
 def test_angles_are_carried_over_with_three_cameras_or_more():

@@ -339,10 +339,13 @@ class _Objective:
         shape = BodyShape(values, float(stature(values)))
         out = []
         for fr in current:
-            q, w, n = pattern_search(fr.particles, fr.weights, _as_body_measure(fr.measure), shape,
-                                     self.limits, keep=self.s.pose_keep, sweeps=self.s.pose_sweeps,
-                                     first_step=0.25)
-            self.evaluations += n
+            measure = _as_body_measure(fr.measure)
+            # weighed again with this body: the weights a pose carries are from the body it was
+            # found with, and the compass search takes a step when it beats its start's weight
+            w0 = measure(fr.particles, shape)
+            q, w, n = pattern_search(fr.particles, w0, measure, shape, self.limits,
+                                     keep=self.s.pose_keep, sweeps=self.s.pose_sweeps, first_step=0.25)
+            self.evaluations += len(w0) + n
             idx = top_distinct(q, w, self.s.pose_keep)
             out.append(fr._replace(particles=q[idx], weights=w[idx]))
         return out
@@ -424,9 +427,17 @@ def fit_shape(frames: list[FramePoses], reference: BodyShape, U: np.ndarray, lim
            "seconds": round(seconds, 3), "height_m_given": height_m,
            "reference_height_m": round(float(stature(obj.ref)), 4),
            "group_factors": {n: round(float(f), 4) for n, f in zip(GROUP_NAMES, group_factors(values))},
-           "score_history": history, "settings": settings._asdict()}
+           "score_history": history, "settings": settings._asdict(),
+           # each frame's best pose with the fitted body (benchmarks/fit_frames.py reads them)
+           "frame_poses": [{"frame": int(fr.frame), "weight": _finite(fr.weights[0]),
+                            "pose": np.round(fr.particles[0], 6).tolist()} for fr in current]}
     return ShapeFitResult(BodyShape(values, float(stature(values))), current, int(obj.evaluations),
                           seconds, doc)
+
+
+def _finite(x) -> float | None:
+    """A weight for JSON (None when not a number)."""
+    return round(float(x), 6) if np.isfinite(x) else None
 
 
 def spread_frames(frames: list[int], k: int) -> list[int]:
