@@ -4,6 +4,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from .errors import IPFError
+
 _REPO = Path(__file__).resolve().parent.parent
 
 
@@ -24,5 +26,7 @@ def cache_dir() -> Path:
 
 def expand_path(value: str, base: Path) -> Path:
     """A path from a config, manifest or option: ``~`` and ``$VARS`` expanded, relative to ``base``."""
+    if "\x00" in value:  # no file system takes one (a binary file read as text, a "\u0000" escape)
+        raise IPFError(f"{value!r} is not a path: it holds a NUL character")
     p = Path(os.path.expandvars(os.path.expanduser(value)))
     return (p if p.is_absolute() else Path(base) / p).resolve()

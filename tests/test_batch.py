@@ -32,7 +32,8 @@ def test_manifest_lines(lab):
 
 
 @pytest.mark.parametrize("text, message", [("# nothing\n\n", "lists no recording"),
-                                           ("a, b, c\n", "line 1: expected 'folder' or 'folder, truth.csv'")])
+                                           ("a, b, c\n", "line 1: expected 'folder' or 'folder, truth.csv'"),
+                                           ("walk\n\x00\x01bin\n", "line 2: .* holds a NUL character")])
 def test_manifest_mistakes(tmp_path, text, message):
     (tmp_path / "m.txt").write_text(text)
     with pytest.raises(IPFError, match=message):

@@ -56,6 +56,23 @@ def test_resume_with_a_missing_csv_is_refused(tmp_path):
     CsvAppender(tmp_path / "fresh.csv", ["frame", "time_s", "a"], keep_rows=0, lazy=True).close()
 
 
+def test_resume_refuses_a_kept_row_cut_short_and_drops_one_past_the_checkpoint(tmp_path):
+    """Only whole rows count: a kept row without its newline (a file cut after the run stopped)
+    would take the next row onto its line."""
+    from ipf_jax.data.runfiles import CsvAppender
+    from ipf_jax.errors import IPFError
+
+    cols = ["frame", "time_s", "a"]
+    path = tmp_path / "poses.csv"
+    path.write_text("frame,time_s,a\n0,0.0,1.0\n1,0.05,2.0\n2,0.1,3")  # row 2 cut short
+    with pytest.raises(IPFError, match="has 2 whole rows, the checkpoint needs 3"):
+        CsvAppender(path, cols, keep_rows=3)
+    app = CsvAppender(path, cols, keep_rows=2)  # the cut row is past the checkpoint: dropped
+    app.write(2, 0.1, [3.0])
+    app.close()
+    assert path.read_text().splitlines()[1:] == ["0,0.0,1.0", "1,0.05,2.0", "2,0.100000,3.000000"]
+
+
 def _all_parsers():
     """Every command's parser, built for real (not the --help placeholders)."""
     out = {}
@@ -139,6 +156,9 @@ def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, caps
     assert not (tmp_path / "b.json").exists()
     assert "--fps 0" in _one_error(["render", str(tmp_path), "--out", str(tmp_path / "v.mp4"),
                                     "--fps", "0"], capsys)
+    # time_s keeps 6 decimals: a frame rate beyond 10 kHz would write every row at one time
+    assert "must be 0.01..10000 Hz" in _one_error(["track", str(tmp_path), "--out", str(tmp_path / "t"),
+                                                   "--fps", "1e9"], capsys)
     assert "--seed" in _one_error(["demo", "--seed", "-1", "--out", str(tmp_path / "demo")], capsys)
     assert not (tmp_path / "demo").exists()  # refused before anything was rendered
 

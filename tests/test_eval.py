@@ -151,6 +151,8 @@ def test_reads_real_ground_truth(shared_data, tmp_path):
     ("no_shared", "share no point name"),
     ("no_overlap", "no frame to score"),
     ("bad_time", "time_s must increase strictly"),
+    ("estimate_time", "time_s must increase strictly from row to row (rows 1 and 2"),
+    ("twice", "column(s) left_knee_x appear more than once"),
     ("bad_joint", "--joints names nose not in both files"),
 ])
 def test_user_mistakes_are_one_line(tmp_path, capsys, case, message):
@@ -164,6 +166,12 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, case, message):
     elif case == "bad_time":
         est = truth
         truth = write_table(tmp_path / "t2.csv", t[::-1], knees(t), ["left_knee", "right_knee"])
+    elif case == "estimate_time":  # every row at one time (a run written with a wrong frame rate)
+        est = write_table(tmp_path / "e.csv", np.zeros(4), knees(t), ["left_knee", "right_knee"])
+    elif case == "twice":  # a column pasted twice: which one is the data?
+        est = tmp_path / "e.csv"
+        lines = truth.read_text().splitlines()
+        est.write_text("\n".join([lines[0] + ",left_knee_x"] + [ln + ",9" for ln in lines[1:]]) + "\n")
     else:
         est, args = truth, ["--joints", "left_knee,nose"]
     assert main(["eval", str(est), str(truth), "--out", str(tmp_path / "ev")] + args) == 2

@@ -3,6 +3,7 @@ that tell a fitting pose from a wrong one, and one clear error per mistake."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import cv2
 import numpy as np
@@ -134,6 +135,16 @@ def test_render_mistakes(scene, tmp_path, capsys, extra, message):
                  *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and message in err and "\n" not in err
+
+
+def test_render_refuses_a_damaged_run_json(scene, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(scene["run"], run)
+    doc = json.loads((run / "run.json").read_text())
+    (run / "run.json").write_text(json.dumps({**doc, "per_frame": 5}))
+    assert main(["render", str(run), "--out", str(tmp_path / "x.mp4"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "per_frame is not a list of frames" in err and "\n" not in err
 
 
 def test_render_needs_a_single_frame_for_a_png(scene, tmp_path, capsys):

@@ -55,8 +55,9 @@ def data_rows(path: Path) -> int:
         return 0
 
 
-def kill_mid_run(argv: list[str], joints: Path) -> int:
-    """Start ``ipf-jax argv`` and SIGKILL it once ``joints`` has KILL_AFTER_ROWS rows."""
+def kill_mid_run(argv: list[str], joints: Path, sig: int = signal.SIGKILL) -> tuple[int, str]:
+    """Start ``ipf-jax argv`` and send it ``sig`` once ``joints`` has KILL_AFTER_ROWS rows; its
+    return code and standard error."""
     proc = subprocess.Popen([sys.executable, "-m", "ipf_jax.cli.main", *argv],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + TIMEOUT_S
@@ -67,19 +68,20 @@ def kill_mid_run(argv: list[str], joints: Path) -> int:
             if time.monotonic() > deadline:
                 pytest.fail(f"no {KILL_AFTER_ROWS} rows within {TIMEOUT_S} s")
             time.sleep(0.01)
-        os.kill(proc.pid, signal.SIGKILL)
+        os.kill(proc.pid, sig)
+        proc.wait(timeout=TIMEOUT_S)
     finally:
         if proc.poll() is None:
             proc.kill()  # SIGKILL as well; also when the test failed before its kill
         proc.wait()
-    return proc.returncode
+    return proc.returncode, proc.stderr.read().decode()
 
 
 def test_sigkill_then_resume_is_byte_identical(walk, tmp_path, capsys):
     full, cut = tmp_path / "full", tmp_path / "cut"
     assert main(track_argv(walk, full)) == 0
 
-    assert kill_mid_run(track_argv(walk, cut), cut / "joints.csv") == -signal.SIGKILL
+    assert kill_mid_run(track_argv(walk, cut), cut / "joints.csv")[0] == -signal.SIGKILL
     done = data_rows(cut / "joints.csv")
     assert KILL_AFTER_ROWS <= done < N_FRAMES  # really stopped mid-run
     assert (cut / "checkpoint.npz").exists()
@@ -104,3 +106,20 @@ def test_chunk_size_does_not_change_the_files(walk, tmp_path):
         assert main(track_argv(walk, tmp_path / str(chunk), "--frames", "0:8", chunk=chunk)) == 0
     for name in ("joints.csv", "poses.csv"):
         assert (tmp_path / "128" / name).read_bytes() == (tmp_path / "64" / name).read_bytes(), name
+
+
+def test_sigterm_keeps_every_finished_frame_for_resume(walk, tmp_path):
+    """A scheduler's SIGTERM is unwound like Ctrl-C: one line, exit 143, and a checkpoint of the
+    frames done (none was due: one every 100 frames), from which --resume finishes the run with
+    the bytes of an uninterrupted one."""
+    full, cut = tmp_path / "full", tmp_path / "cut"
+    every = ("--checkpoint-every", "100")
+    assert main(track_argv(walk, full, *every)) == 0
+    rc, err = kill_mid_run(track_argv(walk, cut, *every), cut / "joints.csv", signal.SIGTERM)
+    assert rc == 128 + signal.SIGTERM
+    assert err.strip().splitlines()[-1] == "terminated (rows written so far are kept; rerun with --resume)"
+    assert (cut / "checkpoint.npz").exists()
+    assert KILL_AFTER_ROWS <= data_rows(cut / "joints.csv") < N_FRAMES
+    assert main(track_argv(walk, cut, *every, "--resume")) == 0
+    for name in ("joints.csv", "poses.csv"):
+        assert (cut / name).read_bytes() == (full / name).read_bytes(), name

@@ -95,9 +95,13 @@ def test_cells_are_the_product_of_value_lists_with_stable_ids(scene):
     ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "nowhere"\n', "dataset folder not found"),
     ('[[filter]]\nname = "sir"\n[eval]\nalign = "affine"\n', "align must be none or rigid"),
     ('[[filter]\nname = "sir"\n', "not a readable TOML file"),
+    ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "a\\u0000b"\n', "it holds a NUL character"),
+    ('[[filter]]\nname = "sir"\n# caf\xe9\n', "not a readable TOML file"),
 ])
 def test_config_mistakes_are_one_error_naming_the_file(scene, body, message):
     cfg = write_config(scene, body)
+    if "\xe9" in body:  # the file in Latin-1, not UTF-8
+        cfg.write_bytes(cfg.read_text().encode("latin-1"))
     with pytest.raises(IPFError) as e:
         load_config(cfg)
     assert message in str(e.value) and e.value.path == str(cfg)

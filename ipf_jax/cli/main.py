@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import warnings
 
 from .. import __version__
@@ -76,6 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = _parser(argv)
     args = ap.parse_args(argv)
     warnings.showwarning = _show_warning
+    previous = _on_sigterm()
     try:
         from .. import jax_setup
 
@@ -85,6 +88,9 @@ def main(argv: list[str] | None = None) -> int:
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("terminated (rows written so far are kept; rerun with --resume)", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print("interrupted (rows written so far are kept; rerun with --resume)", file=sys.stderr)
         return 130
@@ -96,6 +102,26 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: internal error in {args.command}: {type(e).__name__}: {_one_line(e)} "
               "(rerun with --debug for the traceback)", file=sys.stderr)
         return INTERNAL_ERROR
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a batch scheduler's stop, ``kill``): unwound like Ctrl-C, so a run keeps its rows
+    and checkpoint and says so, instead of dying where it stands."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
+def _on_sigterm():
+    """SIGTERM raises :class:`Terminated` while a command runs (main thread only); returns the
+    handler to put back, or None when it cannot be set here."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 def _refuse_empty_paths(args: argparse.Namespace) -> None:

@@ -97,6 +97,10 @@ def _report(records, ran: int, kind: str, files: list) -> int:
               f"(files changed during or between runs: {versions}); rerun into a new --out for "
               "results that compare", file=sys.stderr)
     print("wrote " + ", ".join(str(f) for f in files if f is not None))
+    if failed:  # the exit status's reason where scripts look for it
+        first = failed[0]
+        print(f"error: {len(failed)} of {len(records)} {unit} failed (first: {first['label']}: "
+              f"{first['error']['message']}; all in summary.json)", file=sys.stderr)
     return 1 if failed else 0
 
 

@@ -73,9 +73,10 @@ class CsvAppender:
             lines = self.path.read_text().splitlines(keepends=True)
             require(lines and lines[0].strip() == ",".join(columns),
                     "cannot resume: unexpected header", self.path)
-            require(len(lines) - 1 >= keep_rows,
-                    f"cannot resume: the file has {len(lines) - 1} rows, the checkpoint needs {keep_rows}",
-                    self.path)
+            whole = len(lines) - 1 - (not lines[-1].endswith("\n"))  # a row cut short is no row
+            require(whole >= keep_rows,
+                    f"cannot resume: the file has {whole} whole rows, the checkpoint needs {keep_rows} "
+                    "(it was cut or edited after the run stopped; rerun without --resume)", self.path)
             self.path.write_text("".join(lines[: keep_rows + 1]))
             self._fh = open(self.path, "a")
             self._unsynced = True  # the cut file reaches the disk with the next sync
@@ -241,6 +242,8 @@ def read_table(path: str | Path, what: str = "CSV") -> tuple[list[str], np.ndarr
     lines = [(n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip()]
     require(bool(lines), f"empty {what}", path)
     header = [h.strip() for h in lines[0][1].split(",")]
+    twice = sorted({h for h in header if h and header.count(h) > 1})
+    require(not twice, f"column(s) {', '.join(twice)} appear more than once in the header", path)
     rows = []
     for n, line in lines[1:]:
         cells = line.split(",")

@@ -40,7 +40,10 @@ def read_manifest(path: str | Path) -> list[tuple[Path, Path | None]]:
         require(len(row) <= 2 or not any(row[2:]), f"line {no}: expected 'folder' or 'folder, truth.csv' "
                 f"(got {len(row)} fields)", path)
         truth = row[1] if len(row) > 1 and row[1] else None
-        items.append((resolve(row[0], base), resolve(truth, base) if truth else None))
+        try:
+            items.append((resolve(row[0], base), resolve(truth, base) if truth else None))
+        except IPFError as e:
+            raise IPFError(f"line {no}: {e.message}", path) from None
     require(bool(items), "the manifest lists no recording", path)
     return items
 

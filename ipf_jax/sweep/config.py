@@ -66,7 +66,7 @@ def read_toml(path: Path) -> dict:
             return tomllib.load(fh)
     except FileNotFoundError:
         raise IPFError("config file not found", path) from None
-    except (OSError, tomllib.TOMLDecodeError) as e:
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
         raise IPFError(f"not a readable TOML file ({e})", path) from None
 
 
@@ -112,6 +112,15 @@ def _dataset(entry, k: int, base: Path, path: Path) -> dict:
 def load_config(path: str | Path) -> SweepConfig:
     """Read and validate a sweep TOML; returns every cell in a stable order (see module doc)."""
     path = Path(path)
+    try:
+        return _load_config(path)
+    except IPFError as e:  # every error names the config file (a path in it may be the problem)
+        if e.path is not None:
+            raise
+        raise IPFError(e.message, path) from None
+
+
+def _load_config(path: Path) -> SweepConfig:
     doc = read_toml(path)
     base = path.resolve().parent
     _unknown(doc, ("sweep", "dataset", "filter", "eval"), "top level", path)

@@ -686,6 +686,13 @@ class Tracker:
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
                     if (out_dir / checkpoint.NAME).exists() else "")
             raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM (cli): the frames done since the last
+            if state.next_index > saved:  # checkpoint are kept for --resume as well
+                try:
+                    save()
+                except (OSError, IPFError):
+                    pass
+            raise
         finally:
             reader.close()
             bar.close()

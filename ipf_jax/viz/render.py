@@ -109,7 +109,10 @@ def render_run(run_dir: str | Path, out: str | Path, *, dataset: str | Path | No
         size = int(np.clip(max(max(ds.cameras[c].width, ds.cameras[c].height) for c in cams),
                            MIN_SIDE, MAX_SIDE))
     require(32 <= size <= 4096, f"--size must be 32..4096 px (got {size})")
-    per_frame = {r.get("frame"): r for r in run.meta.get("per_frame", []) if isinstance(r, dict)}
+    listed = run.meta.get("per_frame", [])
+    require(isinstance(listed, list), "run.json's per_frame is not a list of frames (a damaged file?)",
+            Path(run_dir) / "run.json")
+    per_frame = {r.get("frame"): r for r in listed if isinstance(r, dict)}
     U = up_rotation(run.up_axis)
     row_of = {int(f): i for i, f in enumerate(run.frames)}
     sink = _Sink(out, rate, len(chosen))
