@@ -200,6 +200,10 @@ def compare(dataset: Dataset, out_dir: str | Path, filters: str | Sequence[str],
     fps = settings.fps or dataset.fps or DEFAULT_FPS
     for n in names:  # fail on impossible settings before any tracking
         registry.resolve(n, per_filter[n].filter_options, fps, budget=budget)
+    for ref in references:  # a reference of other frames would leave its columns blank
+        require(bool(np.isin(frames, ref.frames).any()), f"the {ref.label} file shares no frame "
+                f"number with the frames compared ({min(frames)}..{max(frames)}; it has "
+                f"{int(ref.frames.min())}..{int(ref.frames.max())})", ref.path)
     out_dir = check_writable(Path(out_dir))
     load = [os.getloadavg()[0]]
     shared, init_evals = _initial_pose(dataset, per_filter[names[0]], frames[0])

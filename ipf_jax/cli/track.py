@@ -77,6 +77,12 @@ def run(args) -> int:
         print(f"shape fitted ({run['shape_source']}): {fit['evaluations']} evaluations, "
               f"{fit['seconds']:.1f} s (initialisation: {run['init_evaluations']} evaluations)")
     print(f"wrote {', '.join(written + ['shape.json'])} to {args.out}")
+    seen = counts["done"] - counts["missing"]
+    if seen > 0 and 2 * counts["lost"] > seen:  # most of the track is no track
+        warnings.warn(IPFWarning(
+            f"{counts['lost']} of {seen} frames with someone in view were lost (the body found does "
+            "not explain the silhouettes: check the calibration against the masks, e.g. with "
+            f"ipf-jax render {args.out})"))
     require(counts["missing"] < counts["done"], f"no frame of {ds.name} shows anyone: every camera's "
             "mask is empty, specks only or nearly all foreground on every frame; check the masks' "
             "foreground threshold or the background model (run.json's mask_quality says so frame "

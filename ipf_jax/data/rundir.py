@@ -90,6 +90,8 @@ def read_run(run_dir: str | Path) -> Run:
     Raises :class:`IPFError` naming the file and the problem.
     """
     run_dir = Path(run_dir)
+    require(not run_dir.is_file(), "is a file: give the run's folder (the one holding run.json and "
+            "joints.csv)", run_dir)
     require(run_dir.is_dir(), "run directory not found", run_dir)
     meta, fps, up, shape = _read_meta(run_dir / "run.json")
     jpath = run_dir / "joints.csv"

@@ -22,7 +22,7 @@ from ...data.runfiles import read_table
 from ...errors import IPFError, load_json
 from .markers import read_marker_file
 from .trajectories import UNIT_SCALE, Trajectories, make_trajectories
-from .vertical import infer_up
+from .vertical import infer_up, warn_if_contradicted
 
 __all__ = [
     "UNIT_SCALE",
@@ -45,6 +45,9 @@ def load(path: str | Path, *, marker_map: str | Path | None = None, up: str | No
     :class:`IPFError` naming the file for anything unreadable.
     """
     path = Path(path)
+    if path.is_dir():
+        raise IPFError("is a folder: give a joints CSV (e.g. a run's joints.csv), a .trc or a .c3d file",
+                       path)
     if not path.is_file():
         raise IPFError("file not found", path)
     if units is not None and units not in UNIT_SCALE:
@@ -90,6 +93,8 @@ def read_joints_csv(path: str | Path, *, up: str | None = None, units: str | Non
     points = {k: v * scale for k, v in points.items()}
     meta = _run_json(path) if meta is None else meta
     up_axis, source = up, "the up option"
+    if up is not None:
+        warn_if_contradicted(points, up, path.name)
     if up_axis is None and meta.get("up_axis") is not None:
         up_axis, source = meta["up_axis"], "run.json"
     if up_axis is None:

@@ -28,7 +28,7 @@ from .markerdata import MarkerData
 from .markersets import MARKER_SETS, index_labels, label_key, recognise, resolve
 from .trajectories import ROLES, UNIT_SCALE, Trajectories, make_trajectories
 from .trc import read_trc
-from .vertical import PELVIS_HEIGHT_M, infer_unit, infer_up, pelvis_height
+from .vertical import PELVIS_HEIGHT_M, infer_unit, infer_up, pelvis_height, warn_if_contradicted
 
 __all__ = [
     "MarkerData",
@@ -69,6 +69,7 @@ def read_marker_file(path: str | Path, *, marker_map: str | Path | None = None,
 
 def _up_axis(points: dict, up: str | None, raw: MarkerData, path: Path) -> tuple[str, str]:
     if up:
+        warn_if_contradicted(points, up, path.name)
         return up, f"up axis {up} from --up"
     body, why = infer_up(points)
     if body is not None:

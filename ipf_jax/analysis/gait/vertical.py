@@ -13,7 +13,11 @@ its horizontal offset from the mean of the feet averages out over a step. So:
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+
+from ...errors import IPFWarning
 
 #: The vertical component must dominate each horizontal one by this factor.
 UP_MARGIN = 2.0
@@ -58,6 +62,14 @@ def infer_up(points: dict) -> tuple[str | None, str]:
                       f"{_fmt(d)})")
     axis = ("+" if d[i] > 0 else "-") + "xyz"[i]
     return axis, f"the pelvis is {abs(d[i]):.3g} units above the feet along {axis}"
+
+
+def warn_if_contradicted(points: dict, up: str, name: str) -> None:
+    """One warning when the body shows another up axis than the one given (``--up``): with a wrong
+    one every step length and speed comes out wrong without an error."""
+    shown, why = infer_up(points)
+    if shown is not None and shown != up:
+        warnings.warn(IPFWarning(f"{name}: --up {up}, but {why}: is the up axis {shown}?"), stacklevel=3)
 
 
 def pelvis_height(points: dict, up: np.ndarray) -> float | None:

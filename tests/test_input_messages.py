@@ -1,0 +1,55 @@
+"""Inputs that used to give a misleading message or a silently wrong answer (an audit of the
+commands with bad input, 2026-12-06): each is now one clear line or a warning."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from ipf_jax.analysis.compare import Reference, compare
+from ipf_jax.analysis.gait.vertical import warn_if_contradicted
+from ipf_jax.body import default_shape
+from ipf_jax.cli import main
+from ipf_jax.data.dataset import MemoryDataset
+from ipf_jax.errors import IPFError, IPFWarning
+from ipf_jax.tracking.tracker import TrackSettings
+from ipf_jax.viz import synthetic as syn
+
+
+def _one_error(argv, capsys) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "\n" not in err
+    return err
+
+
+def test_a_folder_for_a_file_and_a_file_for_a_folder(tmp_path, capsys):
+    (tmp_path / "joints.csv").write_text("frame,time_s\n0,0.0\n")
+    assert "is a folder: give a joints CSV" in _one_error(["gait", str(tmp_path), "--out",
+                                                            str(tmp_path / "g")], capsys)
+    assert "is a file: give the run's folder" in _one_error(
+        ["export", str(tmp_path / "joints.csv"), "--format", "trc", "--out", str(tmp_path / "x.trc")], capsys)
+
+
+def test_an_up_axis_the_body_contradicts_is_a_warning():
+    t = np.linspace(0, 1, 20)[:, None]
+    walk = np.hstack([t, np.zeros_like(t), np.zeros_like(t)])  # walking along x, z up
+    points = {"sacrum": walk + [0, 0, 0.95], "left_ankle": walk + [0, 0.1, 0.08],
+              "right_ankle": walk + [0, -0.1, 0.08]}
+    with pytest.warns(IPFWarning, match=r"--up \+x, but the pelvis is .* along \+z: is the up axis \+z\?"):
+        warn_if_contradicted(points, "+x", "walk.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_if_contradicted(points, "+z", "walk.csv")  # agreed: silent
+
+
+def test_compare_refuses_a_truth_of_other_frames_before_tracking(tmp_path):
+    shape = default_shape(1.75)
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75)
+    q = syn.procedural_walk(3, shape=shape)
+    ds = MemoryDataset(cams, syn.render_masks(q, shape, cams), fps=20.0)
+    ref = Reference("truth", np.arange(1000, 1003), np.zeros((3, 1, 3)), ("left_knee",), "t.csv")
+    with pytest.raises(IPFError, match=r"no frame number with the frames \(0..2; it has 1000..1002\)"):
+        compare(ds, tmp_path / "c", "ipf", 81, settings=TrackSettings(), references=[ref], progress=False)
+    assert not (tmp_path / "c").exists()  # nothing tracked
