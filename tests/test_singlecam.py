@@ -345,3 +345,28 @@ def test_fix_single_takes_the_camera_from_the_dataset(walk_masks, tmp_path, caps
     assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "o"), "--camera",
                     "3"]) == 2
     assert "--camera: no camera '3' (cameras: side, or 1..1)" in capsys.readouterr().err
+
+
+def test_fix_single_refuses_another_camera_than_the_runs(walk_masks, tmp_path, capsys):
+    """The depth is steadied along the run's own camera: a run of several cameras, a camera of
+    another name, or one of that name calibrated elsewhere is one error line."""
+    from ipf_jax.viz.synthetic import write_dataset
+
+    q, masks = walk_masks
+    data = write_dataset(tmp_path / "data", [level_camera()], masks[:, None])
+    other = dataclasses.replace(level_camera(), T=level_camera().T + 0.5)  # same name, elsewhere
+    elsewhere = write_dataset(tmp_path / "elsewhere", [other], masks[:, None])
+    argv = lambda run, *extra: ["fix-single", str(run), "--out", str(tmp_path / "o"), *extra]  # noqa: E731
+    two = write_run_dir(tmp_path / "two", q, shape=SHAPE, fps=20.0,
+                        meta={"dataset": str(data), "cameras": ["side", "front"]})
+    assert main(argv(two)) == 2
+    assert "corrects single-camera runs; this run used 2 cameras (side, front)" in capsys.readouterr().err
+    run = write_run_dir(tmp_path / "run", q, shape=SHAPE, fps=20.0,
+                        meta={"dataset": str(data), "cameras": ["side"]})
+    assert main(argv(run, "--dataset", str(elsewhere))) == 2
+    assert "camera side of this dataset is not the one the run was tracked with" in capsys.readouterr().err
+    named = write_run_dir(tmp_path / "named", q, shape=SHAPE, fps=20.0,
+                          meta={"dataset": str(data), "cameras": ["front"]})
+    assert main(argv(named)) == 2
+    assert "the run was tracked with camera front, not side" in capsys.readouterr().err
+    assert main(argv(run)) == 0  # its own camera

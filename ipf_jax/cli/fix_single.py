@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from ..analysis.singlecam import MEETING_M, MIN_GAIN_M, fix_single_camera
 from ..errors import IPFError, require
 from ..geometry.camera import Camera
@@ -39,19 +41,33 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def _run_camera(args) -> Camera:
     from ..data.dataset import open_dataset, pick_cameras
 
+    meta_path = Path(args.run_dir) / "run.json"
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError) as e:
+        raise IPFError(f"cannot read run.json ({e})", meta_path) from None
+    used = meta.get("cameras") if isinstance(meta, dict) else None
+    require(not isinstance(used, list) or len(used) == 1, "fix-single corrects single-camera runs; "
+            f"this run used {len(used or [])} cameras ({', '.join(map(str, used or []))})", meta_path)
+    recorded = meta.get("dataset")
     path = args.dataset
     if path is None:
-        meta_path = Path(args.run_dir) / "run.json"
-        try:
-            path = json.loads(meta_path.read_text()).get("dataset")
-        except (OSError, ValueError) as e:
-            raise IPFError(f"cannot read run.json ({e})", meta_path) from None
+        path = recorded
         require(isinstance(path, str) and Path(path).exists(), "the run's dataset is not found "
                 "from here: give --dataset (or --keep-depth)", meta_path)
     cams = open_dataset(path).cameras
     require(args.camera is not None or len(cams) == 1,
             f"the dataset has {len(cams)} cameras: say which with --camera", path)
-    return cams[pick_cameras(cams, args.camera, flag("camera"))[0] if args.camera else 0]
+    cam = cams[pick_cameras(cams, args.camera, flag("camera"))[0] if args.camera else 0]
+    require(not used or cam.name == used[0], f"the run was tracked with camera {used and used[0]}, "
+            f"not {cam.name}: the depth is steadied along the run's own camera", path)
+    if isinstance(recorded, str) and Path(recorded).exists() and not Path(recorded).samefile(path):
+        theirs = {c.name: c for c in open_dataset(recorded).cameras}.get(cam.name)
+        require(theirs is None or (np.allclose(theirs.K, cam.K) and np.allclose(theirs.R, cam.R)
+                                   and np.allclose(theirs.T, cam.T)),
+                f"camera {cam.name} of this dataset is not the one the run was tracked with "
+                f"(calibration of {recorded})", path)
+    return cam
 
 
 def run(args: argparse.Namespace) -> int:
