@@ -394,3 +394,17 @@ def test_bodytrack_reader_keeps_its_defaults(bodytrack_dir):
 def test_units_are_refused_where_the_format_fixes_them(bodytrack_dir):
     with pytest.raises(IPFError, match="units apply to OpenCV and TOML files only"):
         read_calibration(bodytrack_dir / "CALIB" / "Camera1.cal", units="m")
+
+
+def test_two_cameras_of_one_name_are_refused(tmp_path):
+    """A dataset picks its cameras by name: two of one name said 'Camera2 not in the calibration'."""
+    import json
+
+    from ipf_jax.viz import synthetic as syn
+
+    write_json(syn.ring_cameras(2, width=80, height=60, focal_px=75), tmp_path / "c.json")
+    doc = json.loads((tmp_path / "c.json").read_text())
+    doc["cameras"][1]["name"] = doc["cameras"][0]["name"]
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match="two cameras share the name Camera1"):
+        read_json(tmp_path / "c.json")
