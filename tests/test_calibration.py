@@ -396,15 +396,20 @@ def test_units_are_refused_where_the_format_fixes_them(bodytrack_dir):
         read_calibration(bodytrack_dir / "CALIB" / "Camera1.cal", units="m")
 
 
-def test_two_cameras_of_one_name_are_refused(tmp_path):
-    """A dataset picks its cameras by name: two of one name said 'Camera2 not in the calibration'."""
+def test_two_cameras_of_one_name_are_refused_when_picked_by_name(tmp_path):
+    """A dataset that picks its cameras by name: two of one name said 'Camera2 not in the
+    calibration'. Taken in order, a calibration may repeat a name."""
     import json
 
+    from ipf_jax.data.sources import _pair_cameras
     from ipf_jax.viz import synthetic as syn
 
     write_json(syn.ring_cameras(2, width=80, height=60, focal_px=75), tmp_path / "c.json")
     doc = json.loads((tmp_path / "c.json").read_text())
     doc["cameras"][1]["name"] = doc["cameras"][0]["name"]
     (tmp_path / "c.json").write_text(json.dumps(doc))
+    cams = read_json(tmp_path / "c.json")  # in order: fine
+    assert [c.name for c in cams] == ["Camera1", "Camera1"]
+    assert _pair_cameras(cams, [{}, {}], tmp_path / "c.json") == cams
     with pytest.raises(IPFError, match="two cameras share the name Camera1"):
-        read_json(tmp_path / "c.json")
+        _pair_cameras(cams, [{"name": "Camera1"}, {"name": "Camera2"}], tmp_path / "c.json")

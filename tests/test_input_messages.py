@@ -50,6 +50,7 @@ def test_compare_refuses_a_truth_of_other_frames_before_tracking(tmp_path):
     q = syn.procedural_walk(3, shape=shape)
     ds = MemoryDataset(cams, syn.render_masks(q, shape, cams), fps=20.0)
     ref = Reference("truth", np.arange(1000, 1003), np.zeros((3, 1, 3)), ("left_knee",), "t.csv")
-    with pytest.raises(IPFError, match=r"no frame number with the frames \(0..2; it has 1000..1002\)"):
+    said = r"shares no frame number with the frames compared \(0..2; it has 1000..1002\)"
+    with pytest.raises(IPFError, match=said):
         compare(ds, tmp_path / "c", "ipf", 81, settings=TrackSettings(), references=[ref], progress=False)
     assert not (tmp_path / "c").exists()  # nothing tracked

@@ -288,7 +288,7 @@ def read_toml(path: str | Path, width: int | None = None, height: int | None = N
                      R=_rotation(rvec, path), T=_translation(tvec, scale, path),
                      width=w, height=h, name=str(t.get("name", key)), source=str(path))
         cams.append(validate_camera(cam, str(path)))
-    return distinct_names(cams, path)
+    return cams
 
 
 # --- ipf-jax JSON --------------------------------------------------------------------------------
@@ -325,11 +325,12 @@ def read_json(path: str | Path, width: int | None = None, height: int | None = N
         cam = Camera(K=K, dist=dist, R=R, T=T, width=w, height=h,
                      name=str(c.get("name", f"camera{i + 1}")), source=str(path))
         cams.append(validate_camera(cam, str(path)))
-    return distinct_names(cams, path)
+    return cams
 
 
 def distinct_names(cams: list[Camera], path) -> list[Camera]:
-    """``cams``, or one error when two share a name (a dataset picks its cameras by name)."""
+    """``cams``, or one error when two share a name (before picking cameras by name; a calibration
+    whose cameras are taken in order may repeat a name)."""
     names = [c.name for c in cams]
     twice = sorted({n for n in names if names.count(n) > 1})
     require(not twice, f"two cameras share the name {', '.join(twice)}: give each its own", path)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..errors import IPFError, IPFWarning, require
 from ..geometry.camera import Camera
-from .calibration import read_calibration
+from .calibration import distinct_names, read_calibration
 from .silhouette import CLOSE_PX, OPEN_PX, THRESHOLD
 from .video import ImageSequence, VideoReader
 
@@ -76,6 +76,7 @@ def match_cameras(cams: list[Camera], inputs: list[Path], names: list[str] | Non
     by_name = {c.name: c for c in cams}
     if names:
         require(len(names) == len(inputs), f"{len(names)} --names for {len(inputs)} inputs")
+        by_name = {c.name: c for c in distinct_names(cams, None)}
         missing = [n for n in names if n not in by_name]
         require(not missing, f"camera(s) {', '.join(missing)} not in the calibration (it has "
                 f"{', '.join(by_name)})")

@@ -32,7 +32,7 @@ from ..errors import IPFError, require
 from ..geometry.camera import Camera
 from ..geometry.world import AXES, axis_vector, detect_up_axis
 from ..paths import shared_data_dir
-from .calibration import read_calibration
+from .calibration import distinct_names, read_calibration
 from .frames import parse_frames, select_frames
 from .silhouette import (
     CLOSE_PX,
@@ -351,7 +351,7 @@ def _pair_cameras(cams: list[Camera], entries: list[dict], calib: Path) -> list[
     """Cameras in the order of the entries: by ``name`` when every entry has one, else by order."""
     names = [e.get("name") for e in entries if isinstance(e, dict)]
     if len(names) == len(entries) and all(isinstance(n, str) for n in names):
-        by_name = {c.name: c for c in cams}
+        by_name = {c.name: c for c in distinct_names(cams, calib)}
         missing = [n for n in names if n not in by_name]
         require(not missing, f"camera(s) {', '.join(missing)} not in the calibration (it has "
                 f"{', '.join(by_name)})", calib)
