@@ -97,6 +97,9 @@ def test_cells_are_the_product_of_value_lists_with_stable_ids(scene):
     ('[[filter]\nname = "sir"\n', "not a readable TOML file"),
     ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "a\\u0000b"\n', "it holds a NUL character"),
     ('[[filter]]\nname = "sir"\n# caf\xe9\n', "not a readable TOML file"),
+    ('[[filter]]\nname = "sir"\nframes = "1000:1002"\n', "walk: frames 1000:1002 selects none of the frames"),
+    ('[[filter]]\nname = "sir"\n[[dataset]]\npath = "walk"\nname = "w2"\ntruth = "pose0.csv"\n',
+     "w2: truth: "),
 ])
 def test_config_mistakes_are_one_error_naming_the_file(scene, body, message):
     cfg = write_config(scene, body)

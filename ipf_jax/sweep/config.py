@@ -172,4 +172,33 @@ def _load_config(path: Path) -> SweepConfig:
                     checked.add(key)
                 cell = make_cell(spec, varying)
                 cells.setdefault(cell.id, cell)
+    _check_data(list(cells.values()), path)
     return SweepConfig(path, list(cells.values()), names, [b["name"] for b in filters])
+
+
+def _check_data(cells, path: Path) -> None:
+    """What only the data can say, before any cell runs: every cell's frame range selects frames
+    of its recording, and every truth file reads as a joints CSV."""
+    from ..data.dataset import open_dataset
+    from ..data.frames import parse_frames, select_frames
+    from ..data.runfiles import read_joints_csv
+
+    frames_of: dict = {}
+    done = set()
+    for cell in cells:
+        spec = cell.spec
+        key = (spec["dataset"], spec["frames"])
+        if spec["frames"] is not None and key not in done:
+            done.add(key)
+            if spec["dataset"] not in frames_of:
+                frames_of[spec["dataset"]] = open_dataset(spec["dataset"]).frames
+            try:
+                select_frames(frames_of[spec["dataset"]], parse_frames(spec["frames"]), warn=False)
+            except IPFError as e:
+                raise IPFError(f"{spec['name']}: {e.message}", path) from None
+        if spec.get("truth") and spec["truth"] not in done:
+            done.add(spec["truth"])
+            try:
+                read_joints_csv(spec["truth"])
+            except IPFError as e:
+                raise IPFError(f"{spec['name']}: truth: {e}", path) from None
