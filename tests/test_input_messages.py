@@ -54,3 +54,27 @@ def test_compare_refuses_a_truth_of_other_frames_before_tracking(tmp_path):
     with pytest.raises(IPFError, match=said):
         compare(ds, tmp_path / "c", "ipf", 81, settings=TrackSettings(), references=[ref], progress=False)
     assert not (tmp_path / "c").exists()  # nothing tracked
+
+
+def test_a_first_pose_outside_the_limits_is_a_warning():
+    """A limits file whose root range excludes where the silhouettes put the person: the floor
+    placement wins, and the run says so instead of writing a pose outside the limits silently."""
+    from types import SimpleNamespace
+
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.body.model import DOF_INDEX, NUM_DOF
+    from ipf_jax.tracking.tracker import Tracker
+
+    limits = load_limits("default")
+    lower, upper = limits.lower.copy(), limits.upper.copy()
+    lower[DOF_INDEX["root_tz"]], upper[DOF_INDEX["root_tz"]] = 5.0, 6.0
+    fake = SimpleNamespace(limits=limits._replace(lower=lower, upper=upper, name="away"))
+    pose = np.zeros(NUM_DOF)
+    pose[DOF_INDEX["root_tz"]] = 0.9
+    said = r"outside the limits \(away\) in root_tz: root_tz 0.900 not in 5.000..6.000"
+    with pytest.warns(IPFWarning, match=said):
+        Tracker._check_within_limits(fake, pose)
+    pose[DOF_INDEX["root_tz"]] = 5.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Tracker._check_within_limits(fake, pose)

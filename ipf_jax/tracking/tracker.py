@@ -37,7 +37,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..jax_setup import host_cpu
 from ..body.limits import Limits, limits_to_json, load_limits
-from ..body.model import NUM_DOF, NUM_POINTS
+from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS
 from ..body.shape import BodyShape, default_shape, load_shape
 from ..data import checkpoint
 from ..data.background_model import frame_quality, quality_summary
@@ -448,12 +448,26 @@ class Tracker:
                 f"the initial pose (--init-pose) lies off every camera's silhouette on frame {frame} "
                 "(weight 0): is it in this dataset's world coordinates and units (metres, the "
                 "dataset's up axis)?")
+        self._check_within_limits(q[best_index(w)])
         doc = None
         if s.shape_fit.frames > 0 and s.init_pose is None and s.shape_file is None:
             q, w, shape, doc = self.calibrate(frame, q, w, shape)  # its cost is in its record
         self.scorer.reset_windows()  # the search's spread is not the tracked frames'
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
                               init_evaluations=state.init_evaluations + n, shape_fit=doc)
+
+    def _check_within_limits(self, pose: np.ndarray) -> None:
+        """One warning when the first pose found lies outside the limits (e.g. a limits file whose
+        root range excludes where the silhouettes put the person: the floor placement wins)."""
+        lo, hi = self.limits.lower, self.limits.upper
+        out = [DOF_NAMES[i] for i in np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))]
+        if out:
+            warnings.warn(IPFWarning(
+                f"the first pose found lies outside the limits ({self.limits.name}) in "
+                f"{', '.join(out)}: " + ", ".join(
+                    f"{DOF_NAMES[i]} {pose[i]:.3f} not in {lo[i]:.3f}..{hi[i]:.3f}"
+                    for i in np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))[:3])
+                + " (radians / metres): do the limits fit this recording?"), stacklevel=2)
 
     def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray,
              log: list | None = None) -> tuple[TrackState, int]:
