@@ -3,6 +3,7 @@ commands with bad input, 2026-12-06): each is now one clear line or a warning.""
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -78,3 +79,32 @@ def test_a_first_pose_outside_the_limits_is_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         Tracker._check_within_limits(fake, pose)
+
+
+def test_calibration_limits_and_dataset_files_that_say_something_else(tmp_path):
+    """A misspelt camera key is a warning, R and rvec together an error; a boolean in a limits
+    range and a dataset.json of another version are errors."""
+    import json
+
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.data.calibration import read_json, write_json
+    from ipf_jax.data.sources import build_sources
+
+    write_json(syn.ring_cameras(2, width=80, height=60, focal_px=75), tmp_path / "c.json")
+    doc = json.loads((tmp_path / "c.json").read_text())
+    doc["cameras"][0]["dst"] = doc["cameras"][0].pop("dist")
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    with pytest.warns(IPFWarning, match=r"camera 0: unknown key\(s\) dst ignored"):
+        read_json(tmp_path / "c.json")
+    doc["cameras"][1]["rvec"] = [0.0, 0.0, 0.0]
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match="camera 1: give R or rvec, not both"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", IPFWarning)
+        read_json(tmp_path / "c.json")
+    lim = json.loads((Path(__file__).parents[1] / "ipf_jax/body/presets/limits_default.json").read_text())
+    lim["dofs"]["left_knee_flexion"] = [0, True]
+    (tmp_path / "l.json").write_text(json.dumps(lim))
+    with pytest.raises(IPFError, match=r"left_knee_flexion: range values must be numbers"):
+        load_limits(tmp_path / "l.json")
+    with pytest.raises(IPFError, match=r"'version' 99: this ipf-jax reads dataset.json version 1"):
+        build_sources(tmp_path, {"version": 99, "calibration": "c.json", "cameras": []})

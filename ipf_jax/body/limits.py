@@ -64,6 +64,8 @@ def load_limits(preset_or_path: str | Path = "default") -> Limits:
         require(d.unit != "rad" or None not in rng, f"{d.name}: an angle's range needs both ends "
                 "(null = unbounded is for the root's translation)", path)
         lo, hi = (-_UNBOUNDED if rng[0] is None else rng[0]), (_UNBOUNDED if rng[1] is None else rng[1])
+        require(not isinstance(lo, bool) and not isinstance(hi, bool),
+                f"{d.name}: range values must be numbers (got {rng!r})", path)
         try:
             lo, hi = float(lo), float(hi)
         except (TypeError, ValueError):

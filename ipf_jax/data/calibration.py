@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 from ..geometry.camera import Camera, validate_camera
 from .calibration_formats import read_optitrack, read_qualisys, read_vicon
 from .calibration_formats.sniff import kind_of
@@ -293,6 +294,10 @@ def read_toml(path: str | Path, width: int | None = None, height: int | None = N
 
 # --- ipf-jax JSON --------------------------------------------------------------------------------
 
+_JSON_CAMERA_KEYS = {"name", "width", "height", "K", "dist", "R", "rvec", "T"}
+_JSON_CAMERA_NOTES = {"reprojection_error_px", "extrinsics_from"}  # what ipf-jax calibrate adds
+
+
 def read_json(path: str | Path, width: int | None = None, height: int | None = None) -> list[Camera]:
     """ipf-jax camera JSON (see docs/formats.md)."""
     path = Path(path)
@@ -306,6 +311,13 @@ def read_json(path: str | Path, width: int | None = None, height: int | None = N
     require(unit in _UNITS, f"unknown units {unit!r} (m, cm, mm)", path)
     cams = []
     for i, c in enumerate(doc["cameras"]):
+        require(isinstance(c, dict), f"camera {i}: must be an object", path)
+        unknown = sorted(set(c) - _JSON_CAMERA_KEYS - _JSON_CAMERA_NOTES)
+        if unknown:  # a misspelt "dist" would leave the lens undistorted without a word
+            warnings.warn(IPFWarning(f"{path}: camera {i}: unknown key(s) {', '.join(unknown)} "
+                                     f"ignored (read: {', '.join(sorted(_JSON_CAMERA_KEYS))})"),
+                          stacklevel=2)
+        require(not ("R" in c and "rvec" in c), f"camera {i}: give R or rvec, not both", path)
         try:
             K = np.array(c["K"], float)
             dist = np.zeros(5)

@@ -396,6 +396,9 @@ def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
     bad = sorted(set(doc) - _TOP_KEYS)
     require(not bad, f"unknown key(s) {', '.join(bad)} (known: {', '.join(sorted(_TOP_KEYS))})",
             doc_path)
+    version = doc.get("version", 1)
+    require(version == 1 and not isinstance(version, bool), f"'version' {version!r}: this ipf-jax "
+            "reads dataset.json version 1 (a newer file needs a newer ipf-jax)", doc_path)
     require("calibration" in doc, "dataset.json needs a 'calibration' file", doc_path)
     up = doc.get("up_axis")
     require(up is None or up in AXES, f"'up_axis' must be one of {', '.join(AXES)}, got {up!r}",
