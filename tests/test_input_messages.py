@@ -108,3 +108,39 @@ def test_calibration_limits_and_dataset_files_that_say_something_else(tmp_path):
         load_limits(tmp_path / "l.json")
     with pytest.raises(IPFError, match=r"'version' 99: this ipf-jax reads dataset.json version 1"):
         build_sources(tmp_path, {"version": 99, "calibration": "c.json", "cameras": []})
+
+
+def test_bench_quick_says_which_options_it_replaces():
+    from types import SimpleNamespace
+
+    from ipf_jax.cli.bench import QUICK_SETS, warn_quick_overrides
+
+    with pytest.warns(IPFWarning, match=r"--cameras ignored \(drop --quick to use them\)"):
+        warn_quick_overrides(SimpleNamespace(**{**QUICK_SETS, "cameras": "9"}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_quick_overrides(SimpleNamespace(**QUICK_SETS))
+
+
+def test_an_initial_pose_the_limits_clamp_is_a_warning():
+    """--init-pose with a knee bent 50 rad is clamped to the limits: said, not silent; a heading
+    of 4 rad is wrapped (periodic), which is no clamp."""
+    from types import SimpleNamespace
+
+    from ipf_jax.body.limits import load_limits
+    from ipf_jax.body.model import DOF_INDEX, NUM_DOF
+    from ipf_jax.tracking.tracker import Tracker
+
+    limits = load_limits("default")
+    fake = SimpleNamespace(limits=limits)
+    pose = np.zeros(NUM_DOF)
+    pose[DOF_INDEX["root_yaw"]] = 4.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Tracker._check_within_limits(fake, pose, what="the initial pose",
+                                     periodic_wrapped=limits.clip(pose[None])[0])
+    pose[DOF_INDEX["left_knee_flexion"]] = 50.0
+    with pytest.warns(IPFWarning, match=r"the initial pose lies outside the limits \(default\) in "
+                                        r"left_knee_flexion: left_knee_flexion 50.000"):
+        Tracker._check_within_limits(fake, pose, what="the initial pose",
+                                     periodic_wrapped=limits.clip(pose[None])[0])

@@ -1,9 +1,10 @@
 """``ipf-jax bench``: throughput of the measure step (JAX vs NumPy) and tracking s/frame (:mod:`ipf_jax.profiling`)."""
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 from ..profiling import (
     BACKENDS,
     DATASET,
@@ -40,6 +41,18 @@ def _start_path(value: str, shared: Path) -> Path:
     return path
 
 
+#: the options ``--quick`` replaces, with their defaults (a value given with --quick is ignored)
+QUICK_SETS = {"widths": "160,320,640", "cameras": "1,4", "particles": "1024,6561,16384"}
+
+
+def warn_quick_overrides(args) -> None:
+    """One warning naming the options ``--quick`` replaces that were given other values."""
+    given = [f"--{k}" for k, default in QUICK_SETS.items() if getattr(args, k) != default]
+    if given:
+        warnings.warn(IPFWarning(f"--quick measures 320 px, 1 camera, 1024 particles: "
+                                 f"{', '.join(given)} ignored (drop --quick to use them)"))
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="throughput of the measure step (JAX vs NumPy) and tracking s/frame")
     add_common(p, "json", help="output file: a JSON list of records")
@@ -47,9 +60,10 @@ def add_parser(sub) -> None:
     p.add_argument("--quick", action="store_true", help="small subset: 320x240, 1 camera, 1024 particles")
     p.add_argument("--backends", default=",".join(BACKENDS), help="comma-separated measure-step "
                    "backends (default: all of " + ", ".join(BACKENDS) + ")")
-    p.add_argument("--widths", default="160,320,640", help="scoring widths (height: 3/4)")
-    add_common(p, "cameras", default="1,4", help="camera counts, comma-separated (default 1,4)")
-    add_option(p, "particles", type=str, default="1024,6561,16384",
+    p.add_argument("--widths", default=QUICK_SETS["widths"], help="scoring widths (height: 3/4)")
+    add_common(p, "cameras", default=QUICK_SETS["cameras"],
+               help="camera counts, comma-separated (default 1,4)")
+    add_option(p, "particles", type=str, default=QUICK_SETS["particles"],
                help="particle counts of the JAX backends, comma-separated (default 1024,6561,16384)")
     p.add_argument("--numpy-particles", type=int, default=512, help="poses for numpy-scanline")
     p.add_argument("--reference-particles", type=int, default=8, help="poses for numpy-reference")
@@ -97,6 +111,7 @@ def run(args) -> int:
         if getattr(args, key) is not None:
             check_value(key, getattr(args, key), flag(key))
     if args.quick:  # after the checks: --quick does not hide a bad value
+        warn_quick_overrides(args)
         widths, cams, counts, track_widths = [320], [1], [1024], []
     if args.cold:
         import jax

@@ -37,7 +37,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..jax_setup import host_cpu
 from ..body.limits import Limits, limits_to_json, load_limits
-from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS
+from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS, PERIODIC_DOFS
 from ..body.shape import BodyShape, default_shape, load_shape
 from ..data import checkpoint
 from ..data.background_model import frame_quality, quality_summary
@@ -401,6 +401,8 @@ class Tracker:
         if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
+            self._check_within_limits(np.asarray(s.init_pose, float), what="the initial pose (--init-pose)",
+                                      periodic_wrapped=q[0])
             # one pose, in a block as the filter's calls run (no program loaded for it alone)
             w = self.measure(obs, shape, log, pad=True)(q)
             return q, w, shape, 1
@@ -456,17 +458,21 @@ class Tracker:
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
                               init_evaluations=state.init_evaluations + n, shape_fit=doc)
 
-    def _check_within_limits(self, pose: np.ndarray) -> None:
-        """One warning when the first pose found lies outside the limits (e.g. a limits file whose
-        root range excludes where the silhouettes put the person: the floor placement wins)."""
+    def _check_within_limits(self, pose: np.ndarray, what: str = "the first pose found",
+                             periodic_wrapped: np.ndarray | None = None) -> None:
+        """One warning when ``pose`` lies outside the limits (e.g. a limits file whose root range
+        excludes where the silhouettes put the person: the floor placement wins; or a given
+        initial pose that the limits clamp). Periodic DOFs are compared once wrapped."""
         lo, hi = self.limits.lower, self.limits.upper
-        out = [DOF_NAMES[i] for i in np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))]
-        if out:
+        pose = np.array(pose, float)
+        if periodic_wrapped is not None:
+            pose[list(PERIODIC_DOFS)] = np.asarray(periodic_wrapped)[list(PERIODIC_DOFS)]
+        bad = np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))
+        if len(bad):
             warnings.warn(IPFWarning(
-                f"the first pose found lies outside the limits ({self.limits.name}) in "
-                f"{', '.join(out)}: " + ", ".join(
-                    f"{DOF_NAMES[i]} {pose[i]:.3f} not in {lo[i]:.3f}..{hi[i]:.3f}"
-                    for i in np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))[:3])
+                f"{what} lies outside the limits ({self.limits.name}) in "
+                f"{', '.join(DOF_NAMES[i] for i in bad)}: " + ", ".join(
+                    f"{DOF_NAMES[i]} {pose[i]:.3f} not in {lo[i]:.3f}..{hi[i]:.3f}" for i in bad[:3])
                 + " (radians / metres): do the limits fit this recording?"), stacklevel=2)
 
     def step(self, state: TrackState, frame: int, seen: Seen, shift: np.ndarray,
