@@ -22,23 +22,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ipf_jax.body.model import POINT_INDEX
+from ipf_jax.body.model import LIMB_JOINTS, POINT_INDEX
 from ipf_jax.body.shape import shape_from_json
+from ipf_jax.data.runfiles import read_joints_csv
 from ipf_jax.geometry.kinematics import forward_kinematics
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.paths import shared_data_dir
 
-LIMB_JOINTS = tuple(f"{s}_{j}" for s in ("left", "right")
-                    for j in ("hip", "knee", "ankle", "shoulder", "elbow", "wrist"))
 WRONG_MM = 60.0  # a frame whose 12-joint error is over this is counted as a wrong pose
 
 
 def truth_points(gt_csv: Path) -> dict[int, dict[str, np.ndarray]]:
     """frame -> joint -> (3,) ground-truth position (m)."""
-    with open(gt_csv, newline="") as fh:
-        return {int(float(r["frame"])): {j: np.array([float(r[f"{j}_{a}"]) for a in "xyz"])
-                                         for j in LIMB_JOINTS}
-                for r in csv.DictReader(fh)}
+    table = read_joints_csv(gt_csv)
+    cols = [table.names.index(j) for j in LIMB_JOINTS]
+    return {int(f): dict(zip(LIMB_JOINTS, pts[cols])) for f, pts in zip(table.frame, table.points)}
 
 
 def frame_rows(run_json: Path, data_root: Path) -> list[dict]:

@@ -38,10 +38,10 @@ def test_a_right_pose_and_one_with_its_legs_swapped(tmp_path):
     set_dir.mkdir(parents=True)
     with open(set_dir / "ground_truth.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["frame"] + [f"{j}_{a}" for j in names for a in "xyz"])
+        w.writerow(["frame", "time_s"] + [f"{j}_{a}" for j in names for a in "xyz"])
         for f, q in truth.items():
             pts = forward_kinematics(q, shape.values, U, xp=np).points
-            w.writerow([f] + [f"{v:.6f}" for j in names for v in pts[POINT_INDEX[j]]])
+            w.writerow([f, f / 20] + [f"{v:.6f}" for j in names for v in pts[POINT_INDEX[j]]])
     run = tmp_path / "run"
     run.mkdir()
     poses = [{"frame": 0, "weight": 9.0, "pose": truth[0].tolist()},

@@ -137,10 +137,8 @@ def test_an_initial_pose_the_limits_clamp_is_a_warning():
     pose[DOF_INDEX["root_yaw"]] = 4.0
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        Tracker._check_within_limits(fake, pose, what="the initial pose",
-                                     periodic_wrapped=limits.clip(pose[None])[0])
+        Tracker._check_within_limits(fake, pose, "the initial pose")
     pose[DOF_INDEX["left_knee_flexion"]] = 50.0
     with pytest.warns(IPFWarning, match=r"the initial pose lies outside the limits \(default\) in "
                                         r"left_knee_flexion: left_knee_flexion 50.000"):
-        Tracker._check_within_limits(fake, pose, what="the initial pose",
-                                     periodic_wrapped=limits.clip(pose[None])[0])
+        Tracker._check_within_limits(fake, pose, "the initial pose")

@@ -27,15 +27,26 @@ class Limits(NamedTuple):
     upper: np.ndarray
     name: str
 
-    def clip(self, x: np.ndarray, *, copy: bool = True) -> np.ndarray:
-        """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi). ``copy=False``: in
-        place when ``x`` is a float64 array (a caller's fresh array: no copy of N x D)."""
+    def wrap(self, x: np.ndarray, *, copy: bool = True) -> np.ndarray:
+        """(..., D) states with the periodic DOFs wrapped to [-pi, pi), nothing clipped
+        (``copy=False``: in place when ``x`` is a float64 array)."""
         x = np.array(x, dtype=float, copy=copy or None)
-        for i in PERIODIC_DOFS:  # wrap first: a heading of 190 deg is -170 deg, not 180
+        for i in PERIODIC_DOFS:  # a heading of 190 deg is -170 deg, not 180
             col = x[..., i]  # in place, the same operations as (x + pi) % 2pi - pi
             col += np.pi
             np.mod(col, 2 * np.pi, out=col)
             col -= np.pi
+        return x
+
+    def outside(self, x: np.ndarray) -> np.ndarray:
+        """(..., D) bool: the DOFs :meth:`clip` would move beyond wrapping (out of range)."""
+        w = self.wrap(x)
+        return (w < self.lower - 1e-9) | (w > self.upper + 1e-9)
+
+    def clip(self, x: np.ndarray, *, copy: bool = True) -> np.ndarray:
+        """Clip (..., D) states into range; wrap periodic DOFs to [-pi, pi). ``copy=False``: in
+        place when ``x`` is a float64 array (a caller's fresh array: no copy of N x D)."""
+        x = self.wrap(x, copy=copy)  # wrap first
         # x is ours: no second copy; np.maximum / np.minimum give np.clip's numbers (NaN kept)
         # in 2/3 of its time on 6561 x 31 states
         np.maximum(x, self.lower, out=x)

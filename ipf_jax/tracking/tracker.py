@@ -37,7 +37,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..jax_setup import host_cpu
 from ..body.limits import Limits, limits_to_json, load_limits
-from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS, PERIODIC_DOFS
+from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS
 from ..body.shape import BodyShape, default_shape, load_shape
 from ..data import checkpoint
 from ..data.background_model import frame_quality, quality_summary
@@ -401,8 +401,7 @@ class Tracker:
         if s.init_pose is not None and shape is None:
             shape = self.base_shape if s.height_m is None else self.base_shape.scaled_to(s.height_m)
             q = self.limits.clip(np.asarray(s.init_pose, float)[None])
-            self._check_within_limits(np.asarray(s.init_pose, float), what="the initial pose (--init-pose)",
-                                      periodic_wrapped=q[0])
+            self._check_within_limits(np.asarray(s.init_pose, float), "the initial pose (--init-pose)")
             # one pose, in a block as the filter's calls run (no program loaded for it alone)
             w = self.measure(obs, shape, log, pad=True)(q)
             return q, w, shape, 1
@@ -458,16 +457,13 @@ class Tracker:
         return state._replace(filter=self.filter_for(shape).init(q, w), shape=shape,
                               init_evaluations=state.init_evaluations + n, shape_fit=doc)
 
-    def _check_within_limits(self, pose: np.ndarray, what: str = "the first pose found",
-                             periodic_wrapped: np.ndarray | None = None) -> None:
+    def _check_within_limits(self, pose: np.ndarray, what: str = "the first pose found") -> None:
         """One warning when ``pose`` lies outside the limits (e.g. a limits file whose root range
         excludes where the silhouettes put the person: the floor placement wins; or a given
-        initial pose that the limits clamp). Periodic DOFs are compared once wrapped."""
+        initial pose that the limits clamp; a heading is wrapped, not out of range)."""
         lo, hi = self.limits.lower, self.limits.upper
-        pose = np.array(pose, float)
-        if periodic_wrapped is not None:
-            pose[list(PERIODIC_DOFS)] = np.asarray(periodic_wrapped)[list(PERIODIC_DOFS)]
-        bad = np.flatnonzero((pose < lo - 1e-9) | (pose > hi + 1e-9))
+        pose = self.limits.wrap(pose)
+        bad = np.flatnonzero(self.limits.outside(pose))
         if len(bad):
             warnings.warn(IPFWarning(
                 f"{what} lies outside the limits ({self.limits.name}) in "
@@ -671,6 +667,13 @@ class Tracker:
                 **self.run_doc(state, time.perf_counter() - t_start), "per_frame": records})
             saved = state.next_index
 
+        def keep_done() -> None:  # on a stop: the frames since the last checkpoint, resumable too
+            if state.next_index > saved:
+                try:
+                    save()
+                except (OSError, IPFError):
+                    pass  # the error to report is the one that stopped the run
+
         try:
             for frame in bar:
                 t0 = time.perf_counter()
@@ -698,20 +701,12 @@ class Tracker:
                     frame_hook(FrameView(frame, seen.masks, self.cameras, pose, state.shape,
                                          self.U, rec.info["weight"]))
         except IPFError as e:  # say where the run stopped and that what was computed is safe
-            if state.next_index > saved:  # the frames since the last checkpoint: resumable too
-                try:
-                    save()
-                except (OSError, IPFError):
-                    pass  # the error to report is the one that stopped the run
+            keep_done()
             hint = ("; rows written so far are kept: fix it and rerun with --resume"
                     if (out_dir / checkpoint.NAME).exists() else "")
             raise IPFError(f"{e.message} (at frame {frame}{hint})", e.path) from None
-        except KeyboardInterrupt:  # Ctrl-C or SIGTERM (cli): the frames done since the last
-            if state.next_index > saved:  # checkpoint are kept for --resume as well
-                try:
-                    save()
-                except (OSError, IPFError):
-                    pass
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM (cli): resumable as well
+            keep_done()
             raise
         finally:
             reader.close()

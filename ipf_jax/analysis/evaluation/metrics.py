@@ -134,10 +134,10 @@ def evaluate(estimate: JointsTable, truth: JointsTable, *, joints=None, align: s
     """
     require(align in ALIGN_MODES, f"unknown alignment {align!r} (choose {', '.join(ALIGN_MODES)})")
     names, scored = choose_joints(estimate.names, truth.names, joints, path=estimate_path)
-    steps = np.diff(np.asarray(estimate.time_s, float))
-    require(bool(np.all(steps > 0)), "time_s must increase strictly from row to row (rows "
-            f"{int(np.argmin(steps > 0)) + 1} and {int(np.argmin(steps > 0)) + 2} do not; written with "
-            "a wrong frame rate?)" if len(steps) else "", estimate_path)
+    stuck = np.flatnonzero(np.diff(np.asarray(estimate.time_s, float)) <= 0)
+    first = int(stuck[0]) + 1 if len(stuck) else 0
+    require(not len(stuck), f"time_s must increase strictly from row to row (rows {first} and "
+            f"{first + 1} do not; written with a wrong frame rate?)", estimate_path)
     est = estimate.points[:, [estimate.names.index(n) for n in names]]  # (T, K, 3)
     ref, inside = resample(estimate.time_s, truth.time_s,
                            truth.points[:, [truth.names.index(n) for n in names]], path=truth_path)
