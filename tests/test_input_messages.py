@@ -82,7 +82,8 @@ def test_a_first_pose_outside_the_limits_is_a_warning():
 
 
 def test_calibration_limits_and_dataset_files_that_say_something_else(tmp_path):
-    """A misspelt camera key is a warning, R and rvec together an error; a boolean in a limits
+    """A misspelt camera key is a warning, R and rvec together an error, a camera matrix whose last
+    row is not (0, 0, 1) an error; a boolean in a limits
     range and a dataset.json of another version are errors."""
     import json
 
@@ -99,6 +100,13 @@ def test_calibration_limits_and_dataset_files_that_say_something_else(tmp_path):
     doc["cameras"][1]["rvec"] = [0.0, 0.0, 0.0]
     (tmp_path / "c.json").write_text(json.dumps(doc))
     with pytest.raises(IPFError, match="camera 1: give R or rvec, not both"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", IPFWarning)
+        read_json(tmp_path / "c.json")
+    del doc["cameras"][1]["rvec"]
+    doc["cameras"][1]["K"][2][2] = 2.0  # a homogeneous scale the projection would ignore
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    with pytest.raises(IPFError, match=r"camera matrix is not upper-triangular with last row \(0, 0, 1\)"), \
+            warnings.catch_warnings():
         warnings.simplefilter("ignore", IPFWarning)
         read_json(tmp_path / "c.json")
     lim = json.loads((Path(__file__).parents[1] / "ipf_jax/body/presets/limits_default.json").read_text())
@@ -142,3 +150,23 @@ def test_an_initial_pose_the_limits_clamp_is_a_warning():
     with pytest.warns(IPFWarning, match=r"the initial pose lies outside the limits \(default\) in "
                                         r"left_knee_flexion: left_knee_flexion 50.000"):
         Tracker._check_within_limits(fake, pose, "the initial pose")
+
+
+def test_init_dataset_refuses_a_background_of_another_size(tmp_path, capsys):
+    """init-dataset used to write a dataset.json whose background only track refused."""
+    import cv2
+
+    from ipf_jax.data.calibration import write_json
+
+    (tmp_path / "cam1").mkdir()
+    for k in range(3):
+        cv2.imwrite(str(tmp_path / "cam1" / f"image{k:04d}.png"), np.full((30, 40, 3), 10 * k, np.uint8))
+    cv2.imwrite(str(tmp_path / "bg.png"), np.zeros((15, 20, 3), np.uint8))
+    write_json(syn.ring_cameras(1, width=40, height=30, focal_px=40), tmp_path / "c.json")
+    err = _one_error(["init-dataset", str(tmp_path / "cam1"), "--calibration", str(tmp_path / "c.json"),
+                      "--background", str(tmp_path / "bg.png"), "--out", str(tmp_path / "d")], capsys)
+    assert "background is 20x15, the frames of cam1 are 40x30" in err
+    assert not (tmp_path / "d" / "dataset.json").exists()
+    cv2.imwrite(str(tmp_path / "bg.png"), np.zeros((30, 40, 3), np.uint8))
+    assert main(["init-dataset", str(tmp_path / "cam1"), "--calibration", str(tmp_path / "c.json"),
+                 "--background", str(tmp_path / "bg.png"), "--out", str(tmp_path / "d")]) == 0

@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 
 import cv2
 import numpy as np
 import pytest
 
 from ipf_jax.data.video import ImageSequence, VideoReader
-from ipf_jax.errors import IPFError
+from ipf_jax.errors import IPFError, IPFWarning
 
 
 def decode_all(path):
@@ -40,7 +41,10 @@ def uu_video(shared_data):
 
 def test_uu_video_counts_decodable_frames(uu_video):
     path, frames = uu_video
-    with VideoReader(path) as clip:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # two frames short of its header's count: no warning
+        clip = VideoReader(path)
+    with clip:
         assert clip.declared_frame_count == 428  # what the AVI header claims
         assert clip.frame_count == len(frames) == 426
         assert (clip.width, clip.height, clip.fps) == (644, 486, 50.0)
@@ -69,15 +73,28 @@ def test_synthetic_video_round_trip(tmp_path):
     np.testing.assert_allclose(levels, [(i * 20) % 250 for i in range(12)], atol=3)
 
 
-def test_truncated_video_counts_what_decodes(tmp_path, shared_data):
+def test_truncated_video_counts_what_decodes(tmp_path, shared_data, capfd):
+    """A cut file: the frames that decode, one warning naming it, none of FFmpeg's own lines."""
     src = shared_data("uu_4cam_background") / "cam2" / "background.avi"
     data = src.read_bytes()
     path = tmp_path / "cut.avi"
     path.write_bytes(data[: int(len(data) * 0.6)])
     frames = decode_all(path)
-    with VideoReader(path) as clip:
+    capfd.readouterr()
+    with pytest.warns(IPFWarning, match=r"cut.avi: only \d+ of the \d+ frames it declares decode"):
+        clip = VideoReader(path)
+    with clip:
         assert clip.declared_frame_count > clip.frame_count == len(frames) > 0
         np.testing.assert_array_equal(clip.read(clip.frame_count - 1), frames[-1])
+    noisy = tmp_path / "noisy.avi"  # a frame cut in the middle: FFmpeg logs "overread"
+    writer = cv2.VideoWriter(str(noisy), cv2.VideoWriter_fourcc(*"MJPG"), 20, (64, 48))
+    for _ in range(10):
+        writer.write(np.random.default_rng(0).integers(0, 256, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    noisy.write_bytes(noisy.read_bytes()[: noisy.stat().st_size // 2])
+    with pytest.warns(IPFWarning, match=r"noisy.avi: only 4 of the 10 frames"):
+        VideoReader(noisy).close()
+    assert "@ 0x" not in capfd.readouterr().err  # FFmpeg's "[mjpeg @ 0x...] overread 8"
 
 
 def _zero_frames(path):

@@ -79,10 +79,7 @@ def _array(value, what: str, path: Path) -> np.ndarray:
 def _intrinsics(K, path: Path) -> np.ndarray:
     K = np.asarray(K, float)
     require(K.shape == (3, 3), f"camera matrix has shape {K.shape}, expected 3x3", path)
-    # the model reads fx, skew, cx, fy, cy only: anything else there would be silently ignored
-    require(K[1, 0] == 0 and np.allclose(K[2], [0, 0, 1]),
-            "camera matrix is not upper-triangular with last row (0, 0, 1)", path)
-    return K
+    return K  # its entries: validate_camera (every reader's cameras)
 
 
 def _distortion(d, path: Path) -> np.ndarray:

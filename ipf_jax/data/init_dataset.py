@@ -18,7 +18,7 @@ from pathlib import Path
 from ..errors import IPFError, IPFWarning, require
 from ..geometry.camera import Camera
 from .calibration import distinct_names, read_calibration
-from .silhouette import CLOSE_PX, OPEN_PX, THRESHOLD
+from .silhouette import CLOSE_PX, OPEN_PX, THRESHOLD, read_color
 from .video import ImageSequence, VideoReader
 
 VIDEO_EXT = {".avi", ".mp4", ".mov", ".mkv", ".m4v", ".mpg", ".mpeg", ".webm", ".wmv"}
@@ -69,6 +69,25 @@ def _open(path: Path, masks: bool):
         raise IPFError("a single image is not a recording: give the folder of numbered images",
                        path)
     return VideoReader(path), "video", None
+
+
+def _background_size(path: Path) -> tuple[int, int]:
+    """(width, height) of a --background: an image, a video or a folder of numbered images."""
+    if not path.exists():
+        raise IPFError("background not found", path)
+    if path.is_dir():
+        prefix = _numbered_prefix(path)
+        require(prefix is not None, "no numbered images (e.g. image0001.png) in this folder", path)
+        reader = ImageSequence(path, prefix, mode="color")
+    elif path.suffix.lower() in IMAGE_EXT:
+        h, w = read_color(path).shape[:2]
+        return w, h
+    else:
+        reader = VideoReader(path)
+    try:
+        return reader.width, reader.height
+    finally:
+        reader.close()
 
 
 def match_cameras(cams: list[Camera], inputs: list[Path], names: list[str] | None = None):
@@ -154,6 +173,9 @@ def describe(inputs: list[Path], calibration: Path, out: Path, *, names: list[st
         if prefix not in (None, "image"):
             e["prefix"] = prefix
         if backgrounds:
+            bw, bh = _background_size(Path(backgrounds[k]))
+            require((bw, bh) == (r.width, r.height), f"background is {bw}x{bh}, the frames of "
+                    f"{p.name} are {r.width}x{r.height}", Path(backgrounds[k]))
             e["background"] = _rel(Path(backgrounds[k]), out)
         entries.append(e)
         r.close()

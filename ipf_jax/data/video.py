@@ -5,21 +5,32 @@ Both expose ``frame_count``, ``fps`` (``None`` when unknown), ``width``, ``heigh
 ``frame_numbers`` (the dataset's number of each frame), ``read(i)`` for the i-th frame (0-based)
 and ``frames(indices)`` yielding ``(i, image)``; both are context managers. Images are
 (H, W, 3) uint8 BGR unless an ImageSequence is asked for grey levels or masks. Problems with the
-input raise :class:`ipf_jax.errors.IPFError` naming the file.
+input raise :class:`ipf_jax.errors.IPFError` naming the file; a video that decodes fewer frames
+than it declares is an :class:`ipf_jax.errors.IPFWarning`. FFmpeg's own log lines ("[mjpeg @
+0x..] overread 8") are silenced unless ``OPENCV_FFMPEG_LOGLEVEL`` is set: they name no file and
+say what these messages say.
 """
 from __future__ import annotations
 
 import math
+import os
 import re
+import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 from .silhouette import read_color, read_gray, read_mask
 
+# read by OpenCV when its FFmpeg backend starts (the first VideoCapture); -8 is AV_LOG_QUIET
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+
+#: a video decoding fewer than this share of the frames its container declares is said to be cut
+#: (the Utrecht AVIs declare 428 and hold 426: containers' counts are often off by a frame or two)
+DECLARED_SHARE = 0.99
 MAX_SKIP = 250  # frames: decoding forward beats seeking below this gap (seeks decode from the
 # previous keyframe, and encoders put keyframes up to 250 frames apart, x264's default)
 
@@ -91,6 +102,10 @@ class VideoReader(_FrameSource):
         self.fps = float(fps) if math.isfinite(fps) and fps > 0 else None
         self.declared_frame_count = int(self._cap.get(cv2.CAP_PROP_FRAME_COUNT))
         self.frame_count = self._count_frames(self.declared_frame_count)
+        if self.frame_count < DECLARED_SHARE * self.declared_frame_count:
+            warnings.warn(IPFWarning(f"{self.path}: only {self.frame_count} of the "
+                                     f"{self.declared_frame_count} frames it declares decode "
+                                     "(a cut or damaged file?)"), stacklevel=2)
 
     @property
     def frame_numbers(self) -> range:

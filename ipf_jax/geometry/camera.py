@@ -89,6 +89,9 @@ def validate_camera(cam: Camera, path: str = "") -> Camera:
                     ("translation", cam.T)):
         require(bool(np.all(np.isfinite(a))), f"{name} contains non-finite numbers", path or None)
     require(cam.K[0, 0] > 0 and cam.K[1, 1] > 0, "focal lengths must be positive", path or None)
+    # the model reads fx, skew, cx, fy, cy only: anything else there would be silently ignored
+    require(cam.K[1, 0] == 0 and bool(np.allclose(cam.K[2], [0, 0, 1])),
+            "camera matrix is not upper-triangular with last row (0, 0, 1)", path or None)
     det = float(np.linalg.det(cam.R))
     ortho = float(np.abs(cam.R @ cam.R.T - np.eye(3)).max())
     require(abs(det - 1.0) < 1e-3 and ortho < 1e-3,
