@@ -28,8 +28,11 @@ softer pelvis widens the capsule without lowering the crotch, which would lift t
 
 **Bounds** (:data:`BOUNDS`): each parameter's ratio to standing height may lie within a fraction
 of the template's ratio (Winter 2009 / Drillis & Contini, see ``presets/shape_default.json``):
-lengths +-15 %, breadths +-20 %, hip joint spacing +-30 % (it follows the breadth, above, at 0.66
-of its absolute change), girths +-30 %, and the sole-to-ankle height -15 % .. +80 % (the
+lengths +-15 %, the foot's length -30 % .. +15 % (it places the centres of the foot's spheres,
+whose radii grow with the shoe's girth, up to +100 %: at twice the template's toe radius the
+tip stays within -15 % of the template's only with the centre 30 % nearer), breadths +-20 %,
+hip joint spacing +-30 % (it follows the breadth, above, at 0.66
+of its absolute change), girths +-30 %, and the sole-to-ankle height -15 % .. +150 % (the
 template's is a barefoot ankle, 0.039 H = 68 mm at 1.75 m; shoes add 1-5 cm: the renders' shod
 ankle centres are 97-124 mm over the floor). Why these: people's relative leg length differs by a few
 per cent within one population and more between populations (relative leg length is studied as the
@@ -58,14 +61,16 @@ from .model import SHAPE_INDEX, SHAPE_PARAM_NAMES
 
 class Group(NamedTuple):
     name: str
-    kind: str  # "length", "breadth", "girth", "ankle" or "shoe" (a key of BOUNDS)
+    kind: str  # "length", "foot", "breadth", "girth", "ankle" or "shoe" (a key of BOUNDS)
     params: tuple[str, ...]
 
 
 GROUPS: tuple[Group, ...] = (
     Group("thigh", "length", ("thigh",)),
     Group("shank", "length", ("shank",)),
-    Group("foot", "length", ("heel_back", "toe_forward", "foot_back", "foot_tip")),
+    # the foot's length places its spheres' centres; their radii grow with the shoe's girth, so
+    # the foot may shorten further than a length (BOUNDS["foot"]) to keep its tip where it was
+    Group("foot", "foot", ("heel_back", "toe_forward", "foot_back", "foot_tip")),
     # sole-to-ankle height: the foot's vertical offsets (shoes raise it; their size: foot_girth)
     Group("ankle", "ankle", ("heel_down", "toe_down", "foot_down", "foot_tip_down")),
     Group("trunk", "length", ("hip_down", "trunk", "crotch_depth", "trunk_low", "trunk_top_gap",
@@ -93,8 +98,8 @@ assert sorted(p for g in GROUPS for p in g.params) == sorted(SHAPE_PARAM_NAMES),
 
 #: Allowed ratio to standing height, as (lower, upper) fractions of the template's ratio (module
 #: doc); the template's ankle is a barefoot one (0.039 H), and shoes add 1-5 cm of sole and heel.
-BOUNDS = {"length": (0.15, 0.15), "breadth": (0.20, 0.20), "girth": (0.30, 0.30),
-          "ankle": (0.15, 1.50), "shoe": (0.15, 1.00)}
+BOUNDS = {"length": (0.15, 0.15), "foot": (0.30, 0.15), "breadth": (0.20, 0.20),
+          "girth": (0.30, 0.30), "ankle": (0.15, 1.50), "shoe": (0.15, 1.00)}
 #: Where a shape fit starts and what its weak prior pulls towards, as each group's factor over
 #: the template's ratio: the template's ankle is barefoot; everyday shoes add about 2.5 cm of
 #: heel and sole (68 -> 92 mm at 1.75 m). Other groups: the template (1).
