@@ -82,16 +82,33 @@ def run_files(paths: list[str]) -> list[Path]:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def runs_from_args(argv, doc: str) -> tuple[list[Path], str | None]:
+    """``RUN_DIR_OR_ACCURACY_OUT... [--csv FILE]`` -> (the run.json files, the CSV path); the
+    files are empty (and said on stderr) when none is found."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("paths", nargs="+", help="run folders or accuracy.py --out folders")
     ap.add_argument("--csv", help="also write every row here")
     args = ap.parse_args(argv)
-    root = shared_data_dir() / "mocap_walk_render"
     files = run_files(args.paths)
     if not files:
         print("error: no run.json under " + ", ".join(args.paths), file=sys.stderr)
+    return files, args.csv
+
+
+def write_rows(path: str | None, rows: list[dict]) -> None:
+    """The rows as a CSV at ``path`` (nothing when no path or no rows)."""
+    if path and rows:
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+
+
+def main(argv=None) -> int:
+    files, csv_path = runs_from_args(argv, __doc__)
+    if not files:
         return 2
+    root = shared_data_dir() / "mocap_walk_render"
     rows = []
     for f in files:
         got = frame_rows(f, root)
@@ -111,11 +128,7 @@ def main(argv=None) -> int:
         print(f"\n{len(rows)} fitted frames, {n_bad} over {WRONG_MM:.0f} mm, "
               f"{sum(r['legs_swapped'] for r in rows)} with the legs swapped; "
               f"median 12-joint error {np.median([r['mpjpe_mm'] for r in rows]):.1f} mm")
-    if args.csv and rows:
-        with open(args.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+    write_rows(csv_path, rows)
     return 0
 
 

@@ -17,8 +17,6 @@ The joints are ``joints.csv``'s; ``run.json`` gives the up axis and the body.
 """
 from __future__ import annotations
 
-import argparse
-import csv
 import json
 import sys
 from pathlib import Path
@@ -29,6 +27,9 @@ from ipf_jax.body.shape import shape_from_json
 from ipf_jax.data.runfiles import read_joints_csv
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.paths import shared_data_dir
+
+sys.path.insert(0, str(Path(__file__).parent))
+from fit_frames import runs_from_args, write_rows  # noqa: E402
 
 FLAT_MM = 15.0  # a truth ankle within this of its lowest: the foot is taken to stand flat
 
@@ -71,24 +72,9 @@ def side_rows(run_json: Path, data_root: Path) -> list[dict]:
     return rows
 
 
-def run_files(paths: list[str]) -> list[Path]:
-    out = []
-    for p in map(Path, paths):
-        if (p / "run.json").is_file():
-            out.append(p / "run.json")
-        else:
-            out += sorted(p.glob("runs/*/run.json"))
-    return out
-
-
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("paths", nargs="+", help="run folders or accuracy.py --out folders")
-    ap.add_argument("--csv", help="also write every row here")
-    args = ap.parse_args(argv)
-    files = run_files(args.paths)
+    files, csv_path = runs_from_args(argv, __doc__)
     if not files:
-        print("error: no run.json under " + ", ".join(args.paths), file=sys.stderr)
         return 2
     rows = []
     print(f"{'run':40s} {'side':5s} {'frames':>6s} {'ankle up':>9s} {'heel up':>8s} {'pitch':>6s}")
@@ -104,11 +90,7 @@ def main(argv=None) -> int:
         print(f"\n{len(done)} feet: ankle {np.mean([r['ankle_up_mm'] for r in done]):+.1f} mm, heel over "
               f"toe {np.mean([r['heel_up_mm'] for r in done]):+.1f} mm "
               f"({np.mean([r['pitch_deg'] for r in done]):+.1f} deg) against the truth's flat feet")
-    if args.csv and rows:
-        with open(args.csv, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+    write_rows(csv_path, rows)
     return 0
 
 
