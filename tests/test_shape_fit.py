@@ -307,6 +307,30 @@ def test_angles_are_carried_over_with_three_cameras_or_more():
     assert for_views(ShapeFitSettings(), 2)._replace(carry_angles=True) == ShapeFitSettings()
 
 
+def test_the_foot_shortens_to_its_own_bound_with_two_cameras_or_more():
+    """The foot's length group reaches -30 % (its spheres' radii grow with the shoe's girth); with
+    one camera the fit holds it to the lengths' +-15 %, and its prior's scale with it."""
+    from ipf_jax.tracking.shape_fit import FOOT_MIN_VIEWS, _Objective, for_views
+
+    assert FOOT_MIN_VIEWS == 2 and P.BOUNDS["foot"] == (0.30, 0.15)
+    assert for_views(ShapeFitSettings(), 1).foot_bounds == P.BOUNDS["length"]
+    assert for_views(ShapeFitSettings(), 2).foot_bounds is None
+    foot = P.GROUP_NAMES.index("foot")
+    theta = np.zeros(P.NUM_GROUPS)
+    theta[foot] = np.log(0.6)
+    t = default_shape()
+    assert P.group_factors(P.build(t.values, theta))[foot] == pytest.approx(0.70, abs=1e-3)
+    held = P.build(t.values, theta, bounds={"foot": P.BOUNDS["length"]})
+    assert P.group_factors(held)[foot] == pytest.approx(0.85, abs=1e-3)
+    P.check_bounds(P.build(t.values, theta))  # a shape file may hold the wider foot
+    for cams, factor in ((1, 0.85), (4, 0.70)):
+        obj = _Objective([], t, U, None, None, for_views(ShapeFitSettings(), cams))
+        assert P.group_factors(obj.body(theta))[foot] == pytest.approx(factor, abs=1e-3)
+    one, four = (_Objective([], t, U, None, None, for_views(ShapeFitSettings(), c)) for c in (1, 4))
+    assert one.half[foot] < four.half[foot]
+    assert np.delete(one.half, foot) == pytest.approx(np.delete(four.half, foot))
+
+
 # -- shape files ----------------------------------------------------------------------------------
 def _shape_file(tmp_path, edit=None, name="shape.json"):
     doc = shape_doc(default_shape(1.80), "test")

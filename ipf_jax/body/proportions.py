@@ -197,15 +197,23 @@ def _scale_groups(values: np.ndarray, factors: np.ndarray) -> np.ndarray:
     return hip_rule(v)
 
 
+def group_bounds(bounds: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(G,) lower and upper factors of every group: :data:`BOUNDS`, with ``bounds`` ({kind: (lower,
+    upper) fractions}) replacing some kinds' (a fit of fewer views holds a group tighter)."""
+    b = {**BOUNDS, **(bounds or {})}
+    return (1 - np.array([b[g.kind][0] for g in GROUPS]), 1 + np.array([b[g.kind][1] for g in GROUPS]))
+
+
 def build(reference: np.ndarray, log_factors: np.ndarray, height_m: float | None = None,
-          iterations: int = 4) -> np.ndarray:
+          iterations: int = 4, bounds: dict | None = None) -> np.ndarray:
     """Shape values from group log-factors, inside the bounds.
 
     reference : (P,) shape values the factors apply to (e.g. the template at the height found).
     log_factors : (..., G) natural logs of each group's factor (0 = the reference).
     height_m : standing height to keep (``dataset.json``'s ``height_m`` or ``--height``): the
         body is scaled uniformly to it; None = the height follows the lengths.
-    Returns (..., P) values; each group's ratio to stature is clipped into :data:`BOUNDS`.
+    bounds : kinds' bounds replacing :data:`BOUNDS`' (:func:`group_bounds`).
+    Returns (..., P) values; each group's ratio to stature is clipped into its bounds.
     """
     theta = np.asarray(log_factors, np.float64)
     v = _scale_groups(np.broadcast_to(reference, theta.shape[:-1] + reference.shape[-1:]),
@@ -214,8 +222,7 @@ def build(reference: np.ndarray, log_factors: np.ndarray, height_m: float | None
         if height_m is not None:
             v = hip_rule(v * (height_m / stature(v))[..., None])
         f = group_factors(v)
-        lo = 1 - np.array([BOUNDS[g.kind][0] for g in GROUPS])
-        hi = 1 + np.array([BOUNDS[g.kind][1] for g in GROUPS])
+        lo, hi = group_bounds(bounds)
         clipped = np.clip(f, lo + 1e-4, hi - 1e-4)
         if np.allclose(clipped, f, rtol=0, atol=1e-9) and height_m is None:
             break

@@ -62,6 +62,7 @@ from ..body.proportions import (
     NUM_GROUPS,
     PRIOR_FACTORS,
     build,
+    group_bounds,
     group_factors,
     stature,
 )
@@ -97,6 +98,9 @@ class ShapeFitSettings(NamedTuple):
     alone, wider shoulders kept the elbows and wrists where the narrower body had put them, so
     the fit could not widen them (the shoulders came out 7-93 mm narrow on every visible walk;
     docs/shape_fit.md).
+    foot_bounds : the foot's length group's bounds (lower, upper fractions) in place of
+        :data:`ipf_jax.body.proportions.BOUNDS`' ``"foot"``, or None; :func:`for_views` holds it
+        to the lengths' +-15 % with fewer than :data:`FOOT_MIN_VIEWS` cameras.
     searches : independent shape searches (the rounds above) from the same start; with more than
     one, the body is the mean of theirs (log factors) and the best one's poses are carried over
     to it. 1 is the default: two cost a third more evaluations and their gain was within the
@@ -115,6 +119,7 @@ class ShapeFitSettings(NamedTuple):
     split_prior: float = 1e-2
     retarget_iterations: int = 3
     carry_angles: bool = True
+    foot_bounds: tuple[float, float] | None = None
     searches: int = 1
 
 
@@ -127,10 +132,20 @@ class ShapeFitSettings(NamedTuple):
 CARRY_ANGLES_MIN_VIEWS = 3
 
 
+#: Fewest cameras for the foot's length bound of -30 % (``BOUNDS["foot"]``). Measured on the
+#: visible renders (docs/shape_fit.md): with 4 cameras it lowered the 10 walks' hip/knee/ankle
+#: offset over seeds 0/1/2 (20.7 -> 18.9 mm), with 2 the two-camera walks' error at seed 0 (59.2
+#: -> 43.5 mm); with 1 it raised the 8 one-camera walks' at seeds 0 and 1 (135.7 -> 148.1 mm, 10
+#: of 16 runs): one view, the fit shortened the foot where the legs were wrong.
+FOOT_MIN_VIEWS = 2
+
+
 def for_views(settings: "ShapeFitSettings", cameras: int) -> "ShapeFitSettings":
     """``settings`` for a recording with ``cameras`` cameras: ``carry_angles`` needs
-    :data:`CARRY_ANGLES_MIN_VIEWS` of them."""
-    return settings._replace(carry_angles=settings.carry_angles and cameras >= CARRY_ANGLES_MIN_VIEWS)
+    :data:`CARRY_ANGLES_MIN_VIEWS` of them, the foot's wider length bound :data:`FOOT_MIN_VIEWS`."""
+    return settings._replace(
+        carry_angles=settings.carry_angles and cameras >= CARRY_ANGLES_MIN_VIEWS,
+        foot_bounds=settings.foot_bounds if cameras >= FOOT_MIN_VIEWS else BOUNDS["length"])
 
 
 #: The lighter initialisation of the other K - 1 frames of pass 1 (shape held, so one height).
@@ -267,15 +282,15 @@ class _Objective:
         self.frames, self.U, self.limits, self.height_m, self.s = frames, U, limits, height_m, settings
         self.ref = np.asarray(reference.values, np.float64)
         self.evaluations = 0
-        # each group's half-width of its bounds in log units: the prior's scale
-        self.half = np.array([np.log((1 + BOUNDS[g.kind][1]) / (1 - BOUNDS[g.kind][0])) / 2
-                              for g in GROUPS])
+        self.bounds = None if settings.foot_bounds is None else {"foot": tuple(settings.foot_bounds)}
+        lo, hi = group_bounds(self.bounds)
+        self.half = np.log(hi / lo) / 2  # each group's half-width in log units: the prior's scale
         self.centre = np.log([PRIOR_FACTORS.get(n, 1.0) for n in GROUP_NAMES])
         self.pairs = [(GROUP_NAMES.index(a), GROUP_NAMES.index(b)) for a, b in SPLITS]
         self.start = 1.0  # the starting score: the prior's unit
 
     def body(self, theta: np.ndarray) -> np.ndarray:
-        return build(self.ref, theta, self.height_m)
+        return build(self.ref, theta, self.height_m, bounds=self.bounds)
 
     def penalty(self, vals: np.ndarray) -> np.ndarray:
         """(L, P) bodies -> (L,) prior penalty in score units."""
