@@ -47,9 +47,9 @@ def side_rows(run_json: Path, data_root: Path) -> list[dict]:
     level = 1000 * (body["toe_down"] - body["heel_down"])  # heel over toe, the foot level
     truth, tracked = read_joints_csv(gt_csv), read_joints_csv(run / "joints.csv")
     t_index = {int(f): i for i, f in enumerate(truth.frame)}
+    both = [(i, t_index[int(f)]) for i, f in enumerate(tracked.frame) if int(f) in t_index]
     rows = []
     for side in ("left", "right"):
-        both = [(i, t_index[int(f)]) for i, f in enumerate(tracked.frame) if int(f) in t_index]
         a_truth = np.array([1000 * truth.points[j][truth.names.index(f"{side}_ankle")] @ up for _, j in both])
         flat = a_truth <= a_truth.min() + FLAT_MM
 

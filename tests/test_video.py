@@ -23,11 +23,14 @@ def decode_all(path):
         frames.append(frame)
 
 
-def write_video(path, n, size=(64, 48), fps=25.0):
+def write_video(path, n, size=(64, 48), fps=25.0, noise=False):
+    """An MJPG clip of grey levels (i * 20) % 250, or of random pixels with ``noise``."""
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, size)
     assert writer.isOpened()
+    rng = np.random.default_rng(0)
     for i in range(n):
-        frame = np.full((size[1], size[0], 3), (i * 20) % 250, np.uint8)
+        frame = (rng.integers(0, 256, (size[1], size[0], 3), dtype=np.uint8) if noise
+                 else np.full((size[1], size[0], 3), (i * 20) % 250, np.uint8))
         writer.write(frame)
     writer.release()
     return path
@@ -86,11 +89,7 @@ def test_truncated_video_counts_what_decodes(tmp_path, shared_data, capfd):
     with clip:
         assert clip.declared_frame_count > clip.frame_count == len(frames) > 0
         np.testing.assert_array_equal(clip.read(clip.frame_count - 1), frames[-1])
-    noisy = tmp_path / "noisy.avi"  # a frame cut in the middle: FFmpeg logs "overread"
-    writer = cv2.VideoWriter(str(noisy), cv2.VideoWriter_fourcc(*"MJPG"), 20, (64, 48))
-    for _ in range(10):
-        writer.write(np.random.default_rng(0).integers(0, 256, (48, 64, 3), dtype=np.uint8))
-    writer.release()
+    noisy = write_video(tmp_path / "noisy.avi", 10, fps=20, noise=True)  # cut in a frame: FFmpeg
     noisy.write_bytes(noisy.read_bytes()[: noisy.stat().st_size // 2])
     with pytest.warns(IPFWarning, match=r"noisy.avi: only 4 of the 10 frames"):
         VideoReader(noisy).close()

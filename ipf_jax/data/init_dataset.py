@@ -72,18 +72,13 @@ def _open(path: Path, masks: bool):
 
 
 def _background_size(path: Path) -> tuple[int, int]:
-    """(width, height) of a --background: an image, a video or a folder of numbered images."""
+    """(width, height) of a --background: an image, or a video or image folder as an input."""
     if not path.exists():
         raise IPFError("background not found", path)
-    if path.is_dir():
-        prefix = _numbered_prefix(path)
-        require(prefix is not None, "no numbered images (e.g. image0001.png) in this folder", path)
-        reader = ImageSequence(path, prefix, mode="color")
-    elif path.suffix.lower() in IMAGE_EXT:
+    if path.suffix.lower() in IMAGE_EXT and not path.is_dir():
         h, w = read_color(path).shape[:2]
         return w, h
-    else:
-        reader = VideoReader(path)
+    reader = _open(path, masks=False)[0]
     try:
         return reader.width, reader.height
     finally:
