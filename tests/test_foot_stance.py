@@ -12,9 +12,11 @@ import pytest
 
 from ipf_jax.body.model import DOF_INDEX, POINT_NAMES
 from ipf_jax.body.shape import default_shape
+from ipf_jax.data.runfiles import POSE_COLUMNS, write_rows
 from ipf_jax.geometry.kinematics import forward_kinematics
 from ipf_jax.geometry.posing import gait_pose
 from ipf_jax.geometry.world import up_rotation
+from ipf_jax.tracking.shape_fit import lowest_heights
 
 _spec = importlib.util.spec_from_file_location(
     "foot_stance", Path(__file__).parents[1] / "benchmarks" / "foot_stance.py")
@@ -34,7 +36,8 @@ def _write(path, shape, U, poses):
 def test_a_foot_on_tiptoe_and_a_level_one(tmp_path):
     """Truth: standing, both feet level, two frames. Tracked: the same with the left ankle turned
     10 deg toes-down and the body 20 mm higher: the left foot's heel 33.4 mm over its level height
-    (192.5 mm heel-to-toe x sin 10 deg), the right foot level, 20 mm high."""
+    (192.5 mm heel-to-toe x sin 10 deg), the right foot level, 20 mm high; its lowest point is
+    its poses' (poses.csv), and none without that file."""
     shape, U = default_shape(1.75), up_rotation("+z")
     level = gait_pose(5, 5, 5, 5)
     tiptoe = level.copy()
@@ -49,6 +52,13 @@ def test_a_foot_on_tiptoe_and_a_level_one(tmp_path):
     (run / "run.json").write_text(json.dumps({"dataset": str(set_dir), "up_axis": "+z",
                                               "shape": shape.to_json()}))
     left, right = foot_stance.side_rows(run / "run.json", tmp_path / "data")
+    assert left["lowest_mm"] is None and right["lowest_mm"] is None  # no poses.csv
+    write_rows(run / "poses.csv", POSE_COLUMNS, [0, 1], [0.0, 0.05], [tiptoe, tiptoe])
+    low = 1000 * lowest_heights(tiptoe[None], shape.values[None], U)[0]
+    flat = 1000 * lowest_heights(level[None], shape.values[None], U)[0]
+    assert low < flat + 20 - 5  # the toes went down more than the body went up
+    left, right = foot_stance.side_rows(run / "run.json", tmp_path / "data")
+    assert left["lowest_mm"] == right["lowest_mm"] == pytest.approx(low, abs=0.1)
     assert left["flat_frames"] == right["flat_frames"] == 2
     assert left["pitch_deg"] == pytest.approx(10, abs=0.1)
     assert left["heel_up_mm"] == pytest.approx(192.5 * np.sin(np.deg2rad(10)), abs=0.2)
