@@ -304,7 +304,27 @@ def test_angles_are_carried_over_with_three_cameras_or_more():
     assert for_views(ShapeFitSettings(), 3).carry_angles
     assert for_views(ShapeFitSettings(), 4).carry_angles
     assert not for_views(ShapeFitSettings(carry_angles=False), 4).carry_angles
-    assert for_views(ShapeFitSettings(), 2)._replace(carry_angles=True) == ShapeFitSettings()
+    two = for_views(ShapeFitSettings(), 2)
+    assert two._replace(carry_angles=True, split_prior=1e-1) == ShapeFitSettings()
+
+
+def test_the_limb_split_prior_is_firmer_with_three_cameras_or_more():
+    """10 % of the starting score at the bound with 3+ cameras (measured there), 1 % below; the
+    penalty of a split moved by the same amount follows the weight."""
+    from ipf_jax.tracking.shape_fit import FEW_VIEWS_SPLIT_PRIOR, _Objective, for_views
+
+    assert ShapeFitSettings().split_prior == 1e-1 and FEW_VIEWS_SPLIT_PRIOR == 1e-2
+    assert [for_views(ShapeFitSettings(), c).split_prior for c in (1, 2, 3, 4)] == [1e-2, 1e-2, 1e-1, 1e-1]
+    t = default_shape()
+    thigh = P.GROUP_NAMES.index("thigh")
+    theta = np.zeros(P.NUM_GROUPS)
+    theta[thigh] = np.log(1.08)  # a longer thigh, the shank as it was: the split moved
+    pen = {}
+    for cams in (1, 4):
+        obj = _Objective([], t, U, None, None, for_views(ShapeFitSettings(), cams))
+        base = obj.penalty(obj.body(np.zeros(P.NUM_GROUPS))[None])[0]
+        pen[cams] = obj.penalty(obj.body(theta)[None])[0] - base
+    assert pen[1] > 0 and pen[4] > 5 * pen[1]
 
 
 def test_the_foot_shortens_to_its_own_bound_with_two_cameras_or_more():
