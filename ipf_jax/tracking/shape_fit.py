@@ -144,7 +144,7 @@ FOOT_MIN_VIEWS = 2
 
 #: The limb-split prior's weight below :data:`CARRY_ANGLES_MIN_VIEWS` cameras. Measured on the
 #: visible renders (docs/shape_fit.md): 10 % (the default) against 1 % lowered the 10 four-camera
-#: walks' error over seeds 0/1/2 (28.0 -> 27.2 mm; the shoulders' constant offset 23.0 -> 18.0 mm,
+#: walks' error over seeds 0/1/2 (28.0 -> 27.2 mm; the shoulders' constant offset 22.9 -> 18.0 mm,
 #: the elbows' 17.0 -> 14.6, the legs' unchanged: the fits' upper arm had drifted up to 10 % long
 #: against the forearm, the truth's split is the template's within 3 %), but raised the 8
 #: one-camera walks' at seeds 0 and 1 (135.7 -> 144.4 mm, 12 of 16 runs worse). The fits with
