@@ -31,7 +31,6 @@ from ipf_jax.likelihood.scorer import Scorer, make_observation, scoring_cameras,
 from ipf_jax.paths import shared_data_dir
 
 
-
 def _row(name: str) -> int:
     """The row of a joint in ``limb_points``' result."""
     return list(KEPT_POINTS).index(POINT_INDEX[name])
