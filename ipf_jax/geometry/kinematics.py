@@ -27,6 +27,7 @@ from ..body.model import (
     SHAPE_INDEX,
     parse_coord,
 )
+from .trig import sincos
 
 
 FRAMES_BY_NAME = {f.name: f for f in FRAMES}
@@ -110,7 +111,7 @@ def forward_kinematics(q: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarra
         for axis, sign, dof in f.rotation:
             i = DOF_INDEX[dof]
             angle = sign * q[..., i:i + 1]  # (..., 1): broadcasts over xyz
-            cols = _turn(cols, axis, xp.cos(angle), xp.sin(angle))
+            cols = _turn(cols, axis, *sincos(xp, angle))
         world[f.name] = (cols, origin)
 
     def place(frame, coords):
@@ -155,7 +156,7 @@ def frame_axes(q_t: np.ndarray, shape_values, up: np.ndarray, names, xp=np) -> d
             cols, origin = pcols, _apply(pcols, porigin, f.origin, shape_values)
         for axis, sign, dof in f.rotation:
             angle = sign * q_t[DOF_INDEX[dof]]
-            cols = _turn(cols, axis, xp.cos(angle), xp.sin(angle))
+            cols = _turn(cols, axis, *sincos(xp, angle))
         world[f.name] = (cols, origin)
     return world
 
@@ -217,7 +218,7 @@ def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -
     loops, so a result can differ from it in the last bit).
     """
     angles = jnp.stack([sign * q_t[DOF_INDEX[dof]] for f in FRAMES for _, sign, dof in f.rotation])
-    cos, sin = jax.lax.optimization_barrier((jnp.cos(angles), jnp.sin(angles)))  # once per joint
+    cos, sin = jax.lax.optimization_barrier(sincos(jnp, angles))  # once per joint
     world = {}
     k = 0
     for f in FRAMES:
