@@ -77,7 +77,7 @@ def main():
     scene = profiling.load_scene(Path(args.data), args.width, args.cameras, 6561)
     s = scorer.Scorer(scene.cameras, scene.shape, scene.up, chunk=512)
     _, ext = s.geometry(scene.particles, kernel="scanline")
-    records, _ = s.geometry(scene.particles[:512], kernel="dense")  # (1, 15, S, B) per camera
+    records, _ = s.geometry(scene.particles[:512], kernel="dense")  # (1, C, 15, S, B)
     win = s.plan(ext)
     q, long_side = s.q, s.long_side
     block = jnp.asarray(np.ascontiguousarray(scene.particles[:512].T, np.float32))
@@ -111,7 +111,7 @@ def main():
         h, w, rows = s.heights[c], s.widths[c], win.rows[c]
         packed = {}
         for name, mod in mods.items():
-            rc = jax.jit(lambda x, mod=mod: coefficients(mod, x, 0))(records[0][c][0])
+            rc = jax.jit(lambda x, mod=mod: coefficients(mod, x, 0))(records[0][0, c])
             f = compiled(lambda r, l, mod=mod, h=h, w=w: mod.list_intervals(r, l, q, h, w), rc, rows)
             calls[f"intervals cam {c + 1} {name}"] = lambda f=f, rc=rc, rows=rows: f(rc, rows)
             packed[name] = np.asarray(f(rc, rows))
