@@ -7,14 +7,17 @@ sines and cosines were half of the stage's time. :func:`sincos` computes both fr
 reduction and two short polynomials, all of them multiplies, adds and selects.
 
 Accuracy (float32, checked by ``tests/test_trig.py`` against float64 NumPy): absolute error
-below 2e-7 for |x| <= 100 rad, i.e. within about two units in the last place of a value near 1.
-The joint angles are within [-2 pi, 2 pi] (``root_yaw`` is wrapped).
+below 2e-7 for |x| <= 100 rad (measured: at most 9.2e-8, about 1.5 units in the last place of a
+value near 1; NumPy's float32 ``cos``: 7.1e-8). The joint angles are within [-2 pi, 2 pi]
+(``root_yaw`` is wrapped). Not for large arguments: beyond |x| ~ 1e6 the reduction loses r, and
+from ~1e7 the results leave [-1, 1]. NaN and inf give NaN; ``sin(-0.0)`` is +0.0.
 
 The reduction is Cody and Waite's: x = k pi/2 + r with k the nearest integer to x 2/pi, pi/2
-split in three float32 parts so that k times the first two is exact for |k| < 2**10; then
-r in [-pi/4, pi/4]. The polynomials' coefficients are a least-squares fit on 2000 Chebyshev
-nodes of [0, pi/4] made for this module (odd polynomial of degree 9 for the sine, even of degree
-10 for the cosine; in float64 their error is 3e-9 and 1e-10).
+split in three float32 parts: k times the first (8 significant bits) is exact for |k| < 2**16,
+k times the second rounds by at most 2**-30 for |x| <= 100, the third carries the rest; then
+r is in [-pi/4, pi/4]. The polynomials' coefficients are a least-squares fit on 2000 Chebyshev
+nodes of [0, pi/4] made for this module (odd polynomial of degree 7 for the sine, even of degree
+8 for the cosine; with the float32 coefficients their error in float64 is 3.4e-9 and 4.9e-10).
 """
 from __future__ import annotations
 

@@ -237,9 +237,9 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
 
     The records are (C, 15, S, B) capsule records, or with ``scan_q`` (the scanline kernel's
     fixed-point scale; 0: records) each capsule's :class:`~ipf_jax.likelihood.raster.RowCoeffs`
-    (batch (C, S, B)); :func:`camera_records` takes one camera's. A program's outputs are materialised, so the rows of stage 2 read them instead
-    of recomputing the quantisation per row (computed in stage 2, XLA fused it into the row loop
-    even behind an ``optimization_barrier``).
+    (batch (C, S, B)); :func:`camera_records` takes one camera's. A program's outputs are
+    materialised, so the rows of stage 2 read them instead of recomputing the quantisation per row
+    (computed in stage 2, XLA fused it into the row loop even behind an ``optimization_barrier``).
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
@@ -257,7 +257,8 @@ def _records(proj, radii, cams, long_side, scan_q):
         return caps, union
     # field by field, never stacked (QuantFields: 2.3x faster than through QuantCaps' stacks);
     # every camera in one array per field: split into per-camera outputs, XLA computed each
-    # camera's copy of each coefficient in a loop of its own, 1.25x the stage's time
+    # camera's copy of each coefficient in a loop of its own (a one-chunk call took 1.23x as long:
+    # benchmarks/geometry_ab.py --variant per-camera)
     qf = quantize_fields(jnp, lambda i: caps[:, i], scan_q, long_side)  # batch (C, S, B)
     return row_coeffs(jnp, qf, scan_q), union
 
