@@ -1,10 +1,10 @@
 """The geometry stage against a variant of itself, both compiled in one process and timed in turn.
 
-    python benchmarks/geometry_ab.py --variant trig|per-camera [--width 80] [--cameras 4]
+    python benchmarks/geometry_ab.py --variant trig|per-camera|stacked [--width 80] [--cameras 4]
                                      [--particles 4000] [--rounds 9]
 
-Reproduces the two changes of 2026-12-06 (seventeenth session, docs/benchmarks.md) as ratios
-measured side by side, which survive the machine's drifts better than two processes do:
+Reproduces the changes of 2026-12-06 (seventeenth and eighteenth sessions, docs/benchmarks.md) as
+ratios measured side by side, which survive the machine's drifts better than two processes do:
 
 * ``trig``: the joint angles' cosines and sines from XLA's ``cos`` / ``sin`` (the code before
   :mod:`ipf_jax.geometry.trig`) against the polynomial of that module: the batched kinematics
@@ -12,6 +12,9 @@ measured side by side, which survive the machine's drifts better than two proces
   chunk (``--particles`` at most one chunk) or of the tracker's block.
 * ``per-camera``: the block program with one output per camera and field (the layout before)
   against the cameras in one array per field (today's).
+* ``stacked``: the block program writing records only (the dense kernel's geometry, and 81f2241's
+  outputs) as one (C, 15, S, B) stack per chunk (the layout before) against its 15 fields as
+  separate outputs (today's).
 
 The tracker's chunking for one call of ``--particles`` sets the block (K chunks of B); the
 variant's outputs are checked to equal today's where they must (``per-camera``: the same
@@ -32,7 +35,7 @@ from ipf_jax.paths import shared_data_dir
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--variant", choices=("trig", "per-camera"), required=True)
+    ap.add_argument("--variant", choices=("trig", "per-camera", "stacked"), required=True)
     ap.add_argument("--width", type=int, default=80)
     ap.add_argument("--cameras", type=int, default=4)
     ap.add_argument("--particles", type=int, default=4000)
@@ -47,8 +50,10 @@ def main():
     block = s._block(scene.particles, 0, min(args.particles, k * b), k, b)
     sv, up, cams = s.shape_values, s.up, s.cams
 
+    scan_q = 0 if args.variant == "stacked" else s.q
+
     def geometry():
-        f = jax.jit(lambda q: S._geometry_calls_impl(q, sv, up, cams, None, s.long_side, s.q))
+        f = jax.jit(lambda q: S._geometry_calls_impl(q, sv, up, cams, None, s.long_side, scan_q))
         return f.lower(block).compile(S.COMPILER_OPTIONS)
 
     def kin():
@@ -62,6 +67,20 @@ def main():
         kinematics.sincos = lambda xp, x: (xp.cos(x), xp.sin(x))  # the code before trig.py
         programs["geometry"].append(geometry())
         programs["kinematics"].append(kin())
+    elif args.variant == "stacked":
+        fields = S._records
+
+        def stacked(proj, radii, cams_, long_side, scan_q_):
+            caps, union = fields(proj, radii, cams_, long_side, scan_q_)
+            return jax.numpy.stack(caps, axis=1), union
+
+        S._records = stacked
+        S._record_layout.cache_clear()
+        programs["geometry"].append(geometry())
+        today = programs["geometry"][0](block)[0]
+        other = np.asarray(programs["geometry"][1](block)[0])
+        same = all(np.array_equal(np.asarray(t), other[:, :, i]) for i, t in enumerate(today))
+        print(f"stacked records equal today's fields: {same}")
     else:
         stacked = S._records
 

@@ -77,7 +77,8 @@ def main():
     scene = profiling.load_scene(Path(args.data), args.width, args.cameras, 6561)
     s = scorer.Scorer(scene.cameras, scene.shape, scene.up, chunk=512)
     _, ext = s.geometry(scene.particles, kernel="scanline")
-    records, _ = s.geometry(scene.particles[:512], kernel="dense")  # (1, C, 15, S, B)
+    fields, _ = s.geometry(scene.particles[:512], kernel="dense")  # 15 x (1, C, S, B)
+    records = [jnp.stack(fields[0], axis=2)]  # (1, C, 15, S, B)
     win = s.plan(ext)
     q, long_side = s.q, s.long_side
     block = jnp.asarray(np.ascontiguousarray(scene.particles[:512].T, np.float32))

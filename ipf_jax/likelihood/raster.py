@@ -134,22 +134,28 @@ def segment_extent(xp, caps, long_side: int):
     a capsule far outside can reach into the image after clipping, so the raw record's box is not
     enough), one pixel of margin. Capsules that are not drawn get an empty box (min > max).
     """
+    return segment_extent_fields(xp, lambda i: caps[..., i], long_side)
+
+
+def segment_extent_fields(xp, field, long_side: int):
+    """:func:`segment_extent` of records given field by field: ``field(i)`` returns field ``i``
+    (0 .. 14) as an array of the capsules' batch shape; -> (*batch, 4) float32."""
     lo, hi, r_hi = _guard(long_side)
     far = np.float32(1e9)
 
-    def field(i):
-        return caps[..., i].astype(xp.float32)
+    def f32(i):
+        return field(i).astype(xp.float32)
 
     # column by column (no small trailing axes): XLA's CPU loops are slow on those
-    r0, r1 = (xp.clip(field(i), np.float32(0), r_hi) for i in (2, 5))
-    quad_on = field(FLAG) > 1.5
-    drawn = field(FLAG) > 0.5
+    r0, r1 = (xp.clip(f32(i), np.float32(0), r_hi) for i in (2, 5))
+    quad_on = f32(FLAG) > 1.5
+    drawn = f32(FLAG) > 0.5
     out = []
     for axis in (1, 0):  # rows come from y, columns from x
-        c0, c1 = xp.clip(field(axis), lo, hi), xp.clip(field(3 + axis), lo, hi)
+        c0, c1 = xp.clip(f32(axis), lo, hi), xp.clip(f32(3 + axis), lo, hi)
         low, high = xp.minimum(c0 - r0, c1 - r1), xp.maximum(c0 + r0, c1 + r1)
         for k in range(4):
-            corner = xp.clip(field(6 + 2 * k + axis), lo, hi)
+            corner = xp.clip(f32(6 + 2 * k + axis), lo, hi)
             low = xp.where(quad_on, xp.minimum(low, corner), low)
             high = xp.where(quad_on, xp.maximum(high, corner), high)
         out += [xp.where(drawn, xp.floor(low) - 1, far), xp.where(drawn, xp.ceil(high) + 1, -far)]

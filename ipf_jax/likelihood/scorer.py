@@ -19,8 +19,8 @@ program XLA recomputes the row intervals once per word:
 1. geometry (all cameras, one batched program with the particle axis last): FK of the distinct
    capsule ends, all of them projected into all cameras in one step, each capsule's quantised
    row coefficients in every camera (:class:`~ipf_jax.likelihood.raster.RowCoeffs`, batch
-   (C, S, B), the cameras in one array per field; the dense kernel gets the records (C, 15, S,
-   B)), and each capsule's extent in each camera, reduced
+   (C, S, B), the cameras in one array per field; the dense kernel gets the records' 15 fields,
+   (C, S, B) each), and each capsule's extent in each camera, reduced
    over the particles (:func:`ipf_jax.likelihood.raster.segment_extent`);
 2. row intervals of the camera's row list, each capsule's own rows of its window ((T, B));
 3. bit words, union, AND with the mask, popcount.
@@ -86,7 +86,7 @@ from .raster import (
     quant_scale,
     quantize_fields,
     row_coeffs,
-    segment_extent,
+    segment_extent_fields,
 )
 
 KERNELS = ("scanline", "dense")
@@ -200,9 +200,10 @@ def projected_ends(q_t, shape_values, up, cams) -> tuple:
     return jax.lax.optimization_barrier(project_xyz(cam, x, y, z))
 
 
-def outline_records(proj: tuple, radii, cams) -> jnp.ndarray:
+def outline_records(proj: tuple, radii, cams) -> tuple:
     """:func:`projected_ends` of one chunk ((C, E, B) each) and the (S, 2) or (S, 2, B) end radii
-    of the segments -> (C, 15, S, B) float32 capsule records."""
+    of the segments -> the 15 fields of the capsule records (:mod:`ipf_jax.geometry.capsule2d`'s
+    order), each (C, S, B) float32."""
     u, v, z, mag = proj
     cam = broadcast_cameras(cams, 2)
     f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])  # (C, 1, 1)
@@ -213,14 +214,14 @@ def outline_records(proj: tuple, radii, cams) -> jnp.ndarray:
         return u[:, idx], v[:, idx], f * r / jnp.maximum(depth, Z_NEAR) * mag[:, idx], depth > Z_NEAR
 
     (x0, y0, r0, in0), (x1, y1, r1, in1) = disc(0), disc(1)  # (C, S, B) each
-    return jnp.stack(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1), axis=1)
+    return tuple(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1))
 
 
 def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
     """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
     last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P)."""
     sv = shape_values.T  # (P,) or (P, B)
-    return outline_records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams)
+    return jnp.stack(outline_records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams), 1)
 
 
 def box_union(xp, ext, axis: int):
@@ -235,9 +236,10 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     """Stage 1: (B, D) particles -> the records of the C cameras, and (C, S, 4) float32 extents
     of each capsule over the chunk (row_min, row_max, col_min, col_max).
 
-    The records are (C, 15, S, B) capsule records, or with ``scan_q`` (the scanline kernel's
-    fixed-point scale; 0: records) each capsule's :class:`~ipf_jax.likelihood.raster.RowCoeffs`
-    (batch (C, S, B)); :func:`camera_records` takes one camera's. A program's outputs are
+    The records are the capsule records, a tuple of their 15 fields of (C, S, B) each, or with
+    ``scan_q`` (the scanline kernel's fixed-point scale; 0: records) each capsule's
+    :class:`~ipf_jax.likelihood.raster.RowCoeffs` (batch (C, S, B)); :func:`camera_records` takes
+    one camera's. A program's outputs are
     materialised, so the rows of stage 2 read them instead of recomputing the quantisation per row
     (computed in stage 2, XLA fused it into the row loop even behind an ``optimization_barrier``).
 
@@ -249,9 +251,11 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
 
 def _records(proj, radii, cams, long_side, scan_q):
     """:func:`_geometry_impl` from one chunk's :func:`projected_ends`."""
-    caps = jax.lax.optimization_barrier(outline_records(proj, radii, cams))  # (C, 15, S, B)
-    by_seg = jnp.moveaxis(caps, 1, -1)  # (C, S, B, 15)
-    ext = segment_extent(jnp, by_seg, long_side)  # (C, S, B, 4)
+    # field by field: stacked as one (C, 15, S, B) array, the records were written twice (each
+    # field, then the stack) and a block's loop copied the stack once more into its output; a
+    # block of records took 1.3-1.4x as long (docs/benchmarks.md)
+    caps = jax.lax.optimization_barrier(outline_records(proj, radii, cams))  # 15 x (C, S, B)
+    ext = segment_extent_fields(jnp, lambda i: caps[i], long_side)  # (C, S, B, 4)
     union = box_union(jnp, ext, 2)
     if not scan_q:
         return caps, union
@@ -259,7 +263,7 @@ def _records(proj, radii, cams, long_side, scan_q):
     # every camera in one array per field: split into per-camera outputs, XLA computed each
     # camera's copy of each coefficient in a loop of its own (a one-chunk call took 1.23x as long:
     # benchmarks/geometry_ab.py --variant per-camera)
-    qf = quantize_fields(jnp, lambda i: caps[:, i], scan_q, long_side)  # batch (C, S, B)
+    qf = quantize_fields(jnp, lambda i: caps[i], scan_q, long_side)  # batch (C, S, B)
     return row_coeffs(jnp, qf, scan_q), union
 
 
@@ -277,10 +281,11 @@ def _intervals_impl(rc, rows, height, width, q):
 
 def _dense_impl(caps, rows, win_rows, win_words, height, width, n_win, n_win_words, q, long_side):
     """Stage 2 (dense), one camera: the same (T, B) packed intervals by per-pixel tests on each
-    capsule's window, then picked in the list's order."""
+    capsule's window, then picked in the list's order. ``caps``: the records' 15 fields, (S, B)
+    each."""
     packed = jax.vmap(lambda c: dense_interval_stage(c.T, win_rows, win_words, n_win, n_win_words,
                                                      q, long_side, height, width),
-                      in_axes=2, out_axes=2)(caps)  # (S, R, B)
+                      in_axes=2, out_axes=2)(jnp.stack(caps))  # (S, R, B)
     return packed[rows.seg, rows.row - win_rows[rows.seg]]
 
 
