@@ -49,6 +49,7 @@ smaller chunk when :data:`SMALL_CHUNKS` are on, and each chunk is sharded over a
 """
 from __future__ import annotations
 
+import bisect
 import collections
 import concurrent.futures
 import functools
@@ -467,12 +468,14 @@ def _list_layout(skip: np.ndarray, count: np.ndarray, n_win: int) -> tuple[np.nd
 
 
 def row_list(win_rows: np.ndarray, skip: np.ndarray, count: np.ndarray, n_win: int,
-             n_list: int) -> RowList:
+             n_list: int, own: np.ndarray | None = None) -> RowList:
     """Host: the :class:`~ipf_jax.likelihood.raster.RowList` of each capsule's ``count[s]`` rows
     from row ``skip[s]`` of its window (S,), laid out by :func:`_list_layout` in ``n_list``
     entries, ``list_need(skip, count, n_win) <= n_list``; the entries no capsule owns are copies
-    of a listed one (solved, never counted)."""
-    own, _ = _list_layout(skip, count, n_win)
+    of a listed one (solved, never counted). ``own``: the layout's first entries when the caller
+    has them already (:func:`_list_layout`)."""
+    if own is None:
+        own, _ = _list_layout(skip, count, n_win)
     step = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)  # 0.. per capsule
     at = np.repeat(own, count) + step
     seg_own = np.repeat(np.arange(len(count)), count)
@@ -562,7 +565,7 @@ def _bucket(old: int, need: int, step: int, cap: int, shrink: bool = False) -> i
     ``shrink`` (once per frame, on the frame's largest need), also when it is smaller. Else
     ``old``. The rungs are a fixed set, so a size met again reuses its compiled program."""
     rungs = _ladder(step, cap)
-    new = next(r for r in rungs if r >= min(max(need, 1), cap))
+    new = rungs[bisect.bisect_left(rungs, min(max(need, 1), cap))]
     return new if new > old or shrink else old
 
 
@@ -802,13 +805,15 @@ class Scorer:
         win_words = np.clip(np.where(seen, w_lo, word0), word0, word0 + n_words - n_win_words)
         skip = np.where(seen, r_lo - win_rows, 0)  # window rows above the capsule (a slid window)
         count = np.where(seen, r_hi - r_lo + 1, 0)  # the capsule's own rows: the list holds these
+        owns = []
         for c, sz in enumerate(sizes):
-            need[c, 4] = list_need(skip[c], count[c], sz.win_rows)
+            own, need[c, 4] = _list_layout(skip[c], count[c], sz.win_rows)
+            owns.append(own)
             sizes[c] = sz._replace(list_rows=_bucket(sz.list_rows, int(need[c, 4]), 8,
                                                      self._list_cap))
         self._need = need if self._need is None else np.maximum(self._need, need)
         self.sizes = sizes
-        rows = tuple(row_list(win_rows[c], skip[c], count[c], sz.win_rows, sz.list_rows)
+        rows = tuple(row_list(win_rows[c], skip[c], count[c], sz.win_rows, sz.list_rows, owns[c])
                      for c, sz in enumerate(sizes))
         return Windows(row0[:, 0].astype(np.int32), word0[:, 0].astype(np.int32),
                        win_rows.astype(np.int32), win_words.astype(np.int32), rows)
