@@ -70,8 +70,8 @@ def main():
     elif args.variant == "stacked":
         fields = S._records
 
-        def stacked(proj, radii, cams_, long_side, scan_q_):
-            caps, union = fields(proj, radii, cams_, long_side, scan_q_)
+        def stacked(discs, long_side, scan_q_):
+            caps, union = fields(discs, long_side, scan_q_)
             return jax.numpy.stack(caps, axis=1), union
 
         S._records = stacked
@@ -84,8 +84,8 @@ def main():
     else:
         stacked = S._records
 
-        def per_camera(proj, radii, cams_, long_side, scan_q):
-            rc, union = stacked(proj, radii, cams_, long_side, scan_q)
+        def per_camera(discs, long_side, scan_q):
+            rc, union = stacked(discs, long_side, scan_q)
             return tuple(jax.tree.map(lambda a, c=c: a[c], rc) for c in range(args.cameras)), union
 
         S._records = per_camera

@@ -73,7 +73,7 @@ from ..geometry.camera import (
     stack_cameras,
 )
 from ..geometry.capsule2d import outline_fields
-from ..geometry.kinematics import CAPSULE_ENDS, SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
+from ..geometry.kinematics import SEGMENT_ENDS, SEGMENT_RADII, capsule_ends
 from ..lowered import Program, register_namedtuple
 from .raster import (
     WORD,
@@ -201,28 +201,38 @@ def projected_ends(q_t, shape_values, up, cams) -> tuple:
     return jax.lax.optimization_barrier(project_xyz(cam, x, y, z))
 
 
-def outline_records(proj: tuple, radii, cams) -> tuple:
-    """:func:`projected_ends` of one chunk ((C, E, B) each) and the (S, 2) or (S, 2, B) end radii
-    of the segments -> the 15 fields of the capsule records (:mod:`ipf_jax.geometry.capsule2d`'s
-    order), each (C, S, B) float32."""
+def end_discs(proj: tuple, radii, cams) -> tuple:
+    """:func:`projected_ends` ((*lead, C, E, B) each) and the (S, 2) or (S, 2, *lead, B) end radii
+    of the segments -> each segment's two end discs in every camera, ``(x0, y0, r0, x1, y1, r1,
+    drawn)``, (*lead, C, S, B) each (``drawn``: both ends in front of the camera)."""
     u, v, z, mag = proj
     cam = broadcast_cameras(cams, 2)
     f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])  # (C, 1, 1)
 
     def disc(end):
-        idx, r = SEGMENT_ENDS[:, end], radii[:, end].reshape(len(SEGMENT_ENDS), -1)  # (S, 1|B)
-        depth = z[:, idx]
-        return u[:, idx], v[:, idx], f * r / jnp.maximum(depth, Z_NEAR) * mag[:, idx], depth > Z_NEAR
+        idx, r = SEGMENT_ENDS[:, end], radii[:, end]
+        # (S, 1), or a body per particle: (S, *lead, B) -> (*lead, 1, S, B)
+        r = r[:, None] if r.ndim == 1 else jnp.moveaxis(r, 0, -2)[..., None, :, :]
+        depth = z[..., idx, :]
+        return (u[..., idx, :], v[..., idx, :], f * r / jnp.maximum(depth, Z_NEAR) * mag[..., idx, :],
+                depth > Z_NEAR)
 
-    (x0, y0, r0, in0), (x1, y1, r1, in1) = disc(0), disc(1)  # (C, S, B) each
-    return tuple(outline_fields(jnp, x0, y0, r0, x1, y1, r1, in0 & in1))
+    (x0, y0, r0, in0), (x1, y1, r1, in1) = disc(0), disc(1)
+    return x0, y0, r0, x1, y1, r1, in0 & in1
+
+
+def outline_records(discs: tuple) -> tuple:
+    """:func:`end_discs` -> the 15 fields of the capsule records
+    (:mod:`ipf_jax.geometry.capsule2d`'s order), float32 arrays of the discs' shape."""
+    return tuple(outline_fields(jnp, *discs))
 
 
 def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
     """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
     last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P)."""
     sv = shape_values.T  # (P,) or (P, B)
-    return jnp.stack(outline_records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams), 1)
+    return jnp.stack(outline_records(end_discs(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII],
+                                               cams)), 1)
 
 
 def box_union(xp, ext, axis: int):
@@ -247,15 +257,16 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
     sv = shape_values.T  # (P,) or (P, B)
-    return _records(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams, long_side, scan_q)
+    discs = end_discs(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams)
+    return _records(jax.lax.optimization_barrier(discs), long_side, scan_q)
 
 
-def _records(proj, radii, cams, long_side, scan_q):
-    """:func:`_geometry_impl` from one chunk's :func:`projected_ends`."""
+def _records(discs, long_side, scan_q):
+    """:func:`_geometry_impl` from one chunk's :func:`end_discs` ((C, S, B) each)."""
     # field by field: stacked as one (C, 15, S, B) array, the records were written twice (each
     # field, then the stack) and a block's loop copied the stack once more into its output; a
     # block of records took 1.3-1.4x as long (docs/benchmarks.md)
-    caps = jax.lax.optimization_barrier(outline_records(proj, radii, cams))  # 15 x (C, S, B)
+    caps = jax.lax.optimization_barrier(outline_records(discs))  # 15 x (C, S, B)
     ext = segment_extent_fields(jnp, lambda i: caps[i], long_side)  # (C, S, B, 4)
     union = box_union(jnp, ext, 2)
     if not scan_q:
@@ -319,11 +330,12 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
     ``shape_values`` (P,) or (K, B, P).
 
-    The forward kinematics and the projection of the capsule ends run on all K x B particles at
-    once (their arrays are small, and per chunk their many short loops cost more to start than to
-    run); the records, extents and row coefficients chunk by chunk, each on a chunk's working set
-    (over a whole block of 4 cameras they left the caches and ran 1.6x slower). Every number is
-    the one K calls of :func:`_geometry_impl` give (docs/benchmarks.md).
+    The forward kinematics, the projection of the capsule ends and the segments' end discs run on
+    all K x B particles at once (their arrays are small, and per chunk their many short loops cost
+    more to start than to run; the discs block-wide: 1.07-1.09x, docs/benchmarks.md); the records,
+    extents and row coefficients chunk by chunk, each on a chunk's working set (over a whole block
+    of 4 cameras they left the caches and ran 1.6x slower). Every number is the one K calls of
+    :func:`_geometry_impl` give (docs/benchmarks.md).
 
     ``outs``: buffers of the records to write the chunks into (:func:`record_buffers`; the
     program is called with them donated: a finished call's records, so XLA does not fill a new
@@ -332,14 +344,10 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     q_t = jnp.moveaxis(q, -1, 0)  # (D, K, B)
     sv = shape_values if shape_values.ndim == 1 else jnp.moveaxis(shape_values, -1, 0)
     proj = projected_ends(q_t, sv, up, cams)  # (K, C, E, B) each
-    radii = sv[SEGMENT_RADII]  # (S, 2) or (S, 2, K, B)
-    per_chunk = radii.ndim > 2
-    if per_chunk:
-        radii = jnp.moveaxis(radii, 2, 0)  # (K, S, 2, B)
+    discs = jax.lax.optimization_barrier(end_discs(proj, sv[SEGMENT_RADII], cams))  # (K, C, S, B)
 
     def chunk(k):
-        return _records(jax.tree.map(lambda a: a[k], proj), radii[k] if per_chunk else radii,
-                        cams, long_side, scan_q)
+        return _records(jax.tree.map(lambda a: a[k], discs), long_side, scan_q)
 
     if outs is None:
         outs = _zero_records(q.shape[0], _record_layout(q.shape[1], cams.K.shape[0], scan_q))
@@ -358,10 +366,9 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
 @functools.lru_cache(maxsize=None)
 def _record_layout(b: int, n_cams: int, scan_q: int):
     """Shapes and dtypes of one chunk's records, every camera (:func:`_records`)."""
-    cams = CameraArrays(*(np.zeros((n_cams,) + s, np.float32) for s in ((3, 3), (5,), (3, 3), (3,), ())))
-    proj = tuple(jax.ShapeDtypeStruct((n_cams, len(CAPSULE_ENDS), b), np.float32) for _ in range(4))
-    radii = jax.ShapeDtypeStruct(SEGMENT_RADII.shape, np.float32)
-    return jax.eval_shape(lambda p, r: _records(p, r, cams, 1, scan_q)[0], proj, radii)
+    disc = jax.ShapeDtypeStruct((n_cams, len(SEGMENT_ENDS), b), np.float32)
+    drawn = jax.ShapeDtypeStruct((n_cams, len(SEGMENT_ENDS), b), np.bool_)
+    return jax.eval_shape(lambda d: _records(d, 1, scan_q)[0], (disc,) * 6 + (drawn,))
 
 
 def _zero_records(k: int, layout):
