@@ -68,10 +68,10 @@ def main():
         programs["geometry"].append(geometry())
         programs["kinematics"].append(kin())
     elif args.variant == "stacked":
-        fields = S._records
+        today_records = S._records
 
         def stacked(discs, long_side, scan_q_):
-            caps, union = fields(discs, long_side, scan_q_)
+            caps, union = today_records(discs, long_side, scan_q_)
             return jax.numpy.stack(caps, axis=1), union
 
         S._records = stacked
@@ -82,10 +82,10 @@ def main():
         same = all(np.array_equal(np.asarray(t), other[:, :, i]) for i, t in enumerate(today))
         print(f"stacked records equal today's fields: {same}")
     else:
-        stacked = S._records
+        today_records = S._records
 
         def per_camera(discs, long_side, scan_q):
-            rc, union = stacked(discs, long_side, scan_q)
+            rc, union = today_records(discs, long_side, scan_q)
             return tuple(jax.tree.map(lambda a, c=c: a[c], rc) for c in range(args.cameras)), union
 
         S._records = per_camera

@@ -68,13 +68,15 @@ def main():
     ap.add_argument("--json", help="write the rounds here")
     args = ap.parse_args()
     jax_setup.configure()
-    tmp = Path(tempfile.mkdtemp(prefix="geometry-vs-"))
-    try:
-        other_lk, other_bench = import_tree(args.tree, tmp)
-        scene = profiling.load_scene(Path(args.data), args.width, args.cameras, args.particles)
-        old_scene = other_bench.load_scene(Path(args.data), args.width, args.cameras, args.particles)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)  # the modules are loaded
+    # the copy stays until the end: the other tree's modules import some of theirs lazily
+    with tempfile.TemporaryDirectory(prefix="geometry-vs-") as tmp:
+        compare(args, *import_tree(args.tree, Path(tmp)))
+
+
+def compare(args, other_lk, other_bench):
+    """Time the other tree's stage and today's block programs in turn (module doc)."""
+    scene = profiling.load_scene(Path(args.data), args.width, args.cameras, args.particles)
+    old_scene = other_bench.load_scene(Path(args.data), args.width, args.cameras, args.particles)
     if scene.particles.shape != old_scene.particles.shape:
         sys.exit("geometry_vs: the two trees' bench scenes have particles of other sizes")
     same_scene = (np.array_equal(scene.particles, old_scene.particles)

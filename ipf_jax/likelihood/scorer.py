@@ -221,18 +221,12 @@ def end_discs(proj: tuple, radii, cams) -> tuple:
     return x0, y0, r0, x1, y1, r1, in0 & in1
 
 
-def outline_records(discs: tuple) -> tuple:
-    """:func:`end_discs` -> the 15 fields of the capsule records
-    (:mod:`ipf_jax.geometry.capsule2d`'s order), float32 arrays of the discs' shape."""
-    return tuple(outline_fields(jnp, *discs))
-
-
 def capsule_fields(q, shape_values, up, cams) -> jnp.ndarray:
     """(B, D) particles -> (C, 15, S, B) float32 capsule records in every camera, particle axis
     last (it is the one the loops vectorise over). ``shape_values`` (P,) or (B, P)."""
     sv = shape_values.T  # (P,) or (P, B)
-    return jnp.stack(outline_records(end_discs(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII],
-                                               cams)), 1)
+    discs = end_discs(projected_ends(q.T, sv, up, cams), sv[SEGMENT_RADII], cams)
+    return jnp.stack(outline_fields(jnp, *discs), 1)
 
 
 def box_union(xp, ext, axis: int):
@@ -266,7 +260,7 @@ def _records(discs, long_side, scan_q):
     # field by field: stacked as one (C, 15, S, B) array, the records were written twice (each
     # field, then the stack) and a block's loop copied the stack once more into its output; a
     # block of records took 1.3-1.4x as long (docs/benchmarks.md)
-    caps = jax.lax.optimization_barrier(outline_records(discs))  # 15 x (C, S, B)
+    caps = jax.lax.optimization_barrier(tuple(outline_fields(jnp, *discs)))  # 15 x (C, S, B)
     ext = segment_extent_fields(jnp, lambda i: caps[i], long_side)  # (C, S, B, 4)
     union = box_union(jnp, ext, 2)
     if not scan_q:
