@@ -145,7 +145,8 @@ _radius = st.one_of(st.floats(0.0, 8.0, width=32), st.floats(0.0, 4.0 * _L, widt
 @settings(max_examples=150, deadline=None)
 # an upright capsule wider than the image, centred right of it: its discs, clipped to a radius of
 # the long side, start at column 21; its quad, its corners clipped to the guard band, covers
-# columns 0-20 too (a box of the discs alone misses them)
+# columns 0-20 too (a box of the discs with the raster's clipped radii misses them; the extent's
+# radii are clipped to twice the long side)
 @example(x0=78.4, y0=0.0, r0=112.0, dx=0.0, dy=40.0, r1=112.0)
 @given(x0=_coord, y0=_coord, r0=_radius, dx=st.floats(-_L, _L, width=32), dy=st.floats(-_L, _L, width=32),
        r1=_radius)

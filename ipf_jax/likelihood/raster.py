@@ -133,6 +133,12 @@ def segment_extent(xp, caps, long_side: int):
     A conservative bound of every pixel of each capsule *as quantised* (clipped to the guard band:
     a capsule far outside can reach into the image after clipping, so the raw record's box is not
     enough), one pixel of margin. Capsules that are not drawn get an empty box (min > max).
+
+    The box is the two discs' boxes about their clipped centres, with radii clipped to twice the
+    long side, not to the long side as the raster clips them: the quad's corners lie on the discs'
+    circles (:mod:`ipf_jax.geometry.capsule2d`), and clipping is monotone and moves no two points
+    further apart, so a clipped corner lies within the unclipped radius of its clipped centre, and
+    within the guard band's width (twice the long side) of it. The corners are not read.
     """
     return segment_extent_fields(xp, lambda i: caps[..., i], long_side)
 
@@ -147,17 +153,12 @@ def segment_extent_fields(xp, field, long_side: int):
         return field(i).astype(xp.float32)
 
     # column by column (no small trailing axes): XLA's CPU loops are slow on those
-    r0, r1 = (xp.clip(f32(i), np.float32(0), r_hi) for i in (2, 5))
-    quad_on = f32(FLAG) > 1.5
+    r0, r1 = (xp.clip(f32(i), np.float32(0), np.float32(2) * r_hi) for i in (2, 5))
     drawn = f32(FLAG) > 0.5
     out = []
     for axis in (1, 0):  # rows come from y, columns from x
         c0, c1 = xp.clip(f32(axis), lo, hi), xp.clip(f32(3 + axis), lo, hi)
         low, high = xp.minimum(c0 - r0, c1 - r1), xp.maximum(c0 + r0, c1 + r1)
-        for k in range(4):
-            corner = xp.clip(f32(6 + 2 * k + axis), lo, hi)
-            low = xp.where(quad_on, xp.minimum(low, corner), low)
-            high = xp.where(quad_on, xp.maximum(high, corner), high)
         out += [xp.where(drawn, xp.floor(low) - 1, far), xp.where(drawn, xp.ceil(high) + 1, -far)]
     return xp.stack(out, axis=-1)
 
