@@ -6,9 +6,13 @@ NumPy baseline (:mod:`ipf_jax.reference.scanline`) uses it, while :mod:`ipf_jax.
 the independent oracle.
 
 :func:`capsule_ends` is the scorer's batched form (particle axis last, JAX): each joint's sine and
-cosine computed once for the whole batch, each body frame's axes computed once (materialised, so
-XLA does not recompute a frame's chain of rotations for every point placed in it), and each
-distinct capsule end placed once (the end of a thigh is the start of its shank).
+cosine computed once for the whole batch, each body frame's axes composed once from its parent's,
+and each distinct capsule end placed once (the end of a thigh is the start of its shank). Which of
+these values XLA keeps in memory and which it recomputes inside a fused loop is its fusion's choice:
+the CPU pipeline removes ``optimization_barrier`` before fusing (``OptimizationBarrierExpander``).
+The barriers below still stop the algebraic simplifier from rewriting across them before that,
+and the compiled arithmetic depends on them to the last bit (docs/benchmarks.md, nineteenth
+session), so they stay.
 """
 from __future__ import annotations
 

@@ -192,9 +192,10 @@ def projected_ends(q_t, shape_values, up, cams) -> tuple:
     (:func:`ipf_jax.geometry.kinematics.capsule_ends`) in every camera, each (*lead, C, E, B)
     for ``batch = (*lead, B)``. ``shape_values`` (P,) or (P, *batch).
 
-    Each end is placed once and projected into all cameras in one step; the results are
-    materialised (``optimization_barrier``), as fused into one loop XLA would recompute them for
-    every field of the records."""
+    Each end is placed once and projected into all cameras in one step. (The barriers do not
+    make XLA keep the results in memory: its CPU pipeline removes them before fusing. They keep
+    the simplifier from rewriting across them, which the tracks depend on to the last bit:
+    :mod:`ipf_jax.geometry.kinematics`.)"""
     ends = jax.lax.optimization_barrier(capsule_ends(q_t, shape_values, up))  # (3, *lead, E, B)
     cam = broadcast_cameras(cams, 2)  # broadcasts as (C, 1, 1): the camera axis before (E, B)
     x, y, z = (e[..., None, :, :] for e in ends)
@@ -246,7 +247,8 @@ def _geometry_impl(q, shape_values, up, cams, long_side, scan_q):
     :class:`~ipf_jax.likelihood.raster.RowCoeffs` (batch (C, S, B)); :func:`camera_records` takes
     one camera's. A program's outputs are
     materialised, so the rows of stage 2 read them instead of recomputing the quantisation per row
-    (computed in stage 2, XLA fused it into the row loop even behind an ``optimization_barrier``).
+    (computed in stage 2, XLA fused it into the row loop: barriers do not keep values in memory
+    on its CPU backend, a program's outputs do).
 
     ``shape_values`` is (P,) (one body for every particle: tracking) or (B, P) (a body per particle:
     shape candidates are data, so scoring another candidate never recompiles)."""
