@@ -53,3 +53,22 @@ def test_a_shorter_thigh_under_a_longer_trunk_keeps_the_knees_and_feet(hip, knee
     assert np.all(moved <= kept + 1e-6)
     assert np.all(moved <= 0.5 * kept + 2e-3), (kept, moved)  # halved, or within 2 mm
     assert np.all(LIMITS.clip(placed) == placed)
+
+
+def test_limb_points_are_forward_kinematics_number_for_number():
+    """The retarget's own placement of the kept joints (only their frames turned) gives the float64
+    numbers of the full forward kinematics exactly, for poses and bodies with leading axes."""
+    from ipf_jax.geometry.kinematics import forward_kinematics
+    from ipf_jax.geometry.retarget import KEPT_POINTS
+
+    rng = np.random.default_rng(4)
+    base = default_shape(1.75).values
+    q = np.stack([gait_pose(a, 5, b, c) for a, b, c in rng.uniform(-30, 40, (6, 3))]).reshape(2, 3, -1)
+    q = q + rng.normal(0, 0.05, q.shape)
+    bodies = base * rng.uniform(0.9, 1.1, (2, 3, len(base)))
+    full = forward_kinematics(q, np.moveaxis(bodies, -1, 0)[..., None], U, xp=np).points[..., KEPT_POINTS, :]
+    got = limb_points(q, bodies, U)
+    assert got.shape == (2, 3, len(KEPT_POINTS), 3)
+    assert np.array_equal(got, full)
+    one = limb_points(q, base, U)  # one body for every pose
+    assert np.array_equal(one, forward_kinematics(q, base, U, xp=np).points[..., KEPT_POINTS, :])
