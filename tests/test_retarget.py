@@ -72,3 +72,6 @@ def test_limb_points_are_forward_kinematics_number_for_number():
     assert np.array_equal(got, full)
     one = limb_points(q, base, U)  # one body for every pose
     assert np.array_equal(one, forward_kinematics(q, base, U, xp=np).points[..., KEPT_POINTS, :])
+    tilted = up_rotation("-y") @ up_rotation("+z")  # a root rotation that is not the identity
+    full = forward_kinematics(q, np.moveaxis(bodies, -1, 0)[..., None], tilted, xp=np).points
+    assert np.array_equal(limb_points(q, bodies, tilted), full[..., KEPT_POINTS, :])

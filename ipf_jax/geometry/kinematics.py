@@ -222,7 +222,7 @@ def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -
     loops, so a result can differ from it in the last bit).
     """
     angles = jnp.stack([sign * q_t[DOF_INDEX[dof]] for f in FRAMES for _, sign, dof in f.rotation])
-    cos, sin = jax.lax.optimization_barrier(sincos(jnp, angles))  # once per joint
+    cos, sin = jax.lax.optimization_barrier(sincos(jnp, angles))  # once per joint in the traced program
     world = {}
     k = 0
     for f in FRAMES:
@@ -235,6 +235,6 @@ def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -
         for axis, _, _ in f.rotation:
             cols = _turn(cols, axis, cos[k], sin[k])
             k += 1
-        world[f.name] = jax.lax.optimization_barrier((cols, origin))  # each frame's axes once
+        world[f.name] = jax.lax.optimization_barrier((cols, origin))  # each frame's axes traced once
     ends = [jnp.stack(_apply(*world[frame], coords, shape_values)) for frame, coords in CAPSULE_ENDS]
     return jnp.stack(ends, axis=-2)  # every end moves with the root: (3, *lead, B) each

@@ -31,7 +31,8 @@ def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
     Only the frames above the kept points are turned and only those points placed
     (:func:`~ipf_jax.geometry.kinematics.frame_axes`, particle axis last), with the arithmetic of
     :func:`~ipf_jax.geometry.kinematics.forward_kinematics` number for number: the same float64
-    results in a fifth of the time (the retarget's Jacobian places 21 bodies per pose)."""
+    results, a retarget in less than half the time (the Jacobian places 21 bodies per pose;
+    docs/benchmarks.md)."""
     q = np.asarray(q, np.float64)
     lead = q.shape[:-1]
     values = np.broadcast_to(np.asarray(values, np.float64), lead + np.shape(values)[-1:])

@@ -137,8 +137,10 @@ def segment_extent(xp, caps, long_side: int):
     The box is the two discs' boxes about their clipped centres, with radii clipped to twice the
     long side, not to the long side as the raster clips them: the quad's corners lie on the discs'
     circles (:mod:`ipf_jax.geometry.capsule2d`), and clipping is monotone and moves no two points
-    further apart, so a clipped corner lies within the unclipped radius of its clipped centre, and
-    within the guard band's width (twice the long side) of it. The corners are not read.
+    further apart, so in each coordinate a clipped corner lies within the unclipped radius of its
+    disc's clipped centre, and within the guard band's width (twice the long side) of it. The
+    corners are not read. (Radii are taken by magnitude: a negative one, which no camera or body
+    produces, still bounds its corners.)
     """
     return segment_extent_fields(xp, lambda i: caps[..., i], long_side)
 
@@ -153,7 +155,7 @@ def segment_extent_fields(xp, field, long_side: int):
         return field(i).astype(xp.float32)
 
     # column by column (no small trailing axes): XLA's CPU loops are slow on those
-    r0, r1 = (xp.clip(f32(i), np.float32(0), np.float32(2) * r_hi) for i in (2, 5))
+    r0, r1 = (xp.minimum(xp.abs(f32(i)), np.float32(2) * r_hi) for i in (2, 5))
     drawn = f32(FLAG) > 0.5
     out = []
     for axis in (1, 0):  # rows come from y, columns from x
