@@ -22,7 +22,8 @@ def _carry(q, old, new, iterations):
     targets = limb_points(place_on_floor_many(q, o, U), o, U)
     placed = place_on_floor_many(q, v, U)
     if iterations:
-        placed = place_on_floor_many(retarget(placed, v, targets, U, LIMITS.clip, iterations=iterations), v, U)
+        moved = retarget(placed, v, targets, U, LIMITS.clip, iterations=iterations)
+        placed = place_on_floor_many(moved, v, U)
     legs = [0, 1, 2, 3, 6, 7, 8, 9]  # knees, ankles, heels, toes (the arms may be out of reach)
     return np.linalg.norm(limb_points(placed, v, U) - targets, axis=-1)[:, legs].mean(-1), placed
 
@@ -75,3 +76,37 @@ def test_limb_points_are_forward_kinematics_number_for_number():
     tilted = up_rotation("-y") @ up_rotation("+z")  # a root rotation that is not the identity
     full = forward_kinematics(q, np.moveaxis(bodies, -1, 0)[..., None], tilted, xp=np).points
     assert np.array_equal(limb_points(q, bodies, tilted), full[..., KEPT_POINTS, :])
+
+
+def _retarget_full(q, values, targets, U, clip, iterations=3, step=1e-3, damping=1e-4):
+    """The retarget as first written: every kept joint placed for every DOF's step, by the full
+    forward kinematics (the reference the limb-by-limb Jacobian must equal)."""
+    from ipf_jax.geometry.kinematics import forward_kinematics
+    from ipf_jax.geometry.retarget import KEPT_POINTS, LIMB_DOFS
+
+    q = np.array(q, np.float64)
+    n, k = q.shape[0], len(LIMB_DOFS)
+    v = np.repeat(np.asarray(values, np.float64)[:, None], k + 1, 1)
+    for _ in range(iterations):
+        qq = np.repeat(q[:, None], k + 1, 1)
+        qq[:, 1:, LIMB_DOFS] += step * np.eye(k)
+        p = forward_kinematics(qq, np.moveaxis(v, -1, 0)[..., None], U, xp=np).points[..., KEPT_POINTS, :]
+        residual = (p[:, 0] - targets).reshape(n, -1, 1)
+        J = ((p[:, 1:] - p[:, :1]) / step).reshape(n, k, -1)
+        delta = np.linalg.solve(J @ J.transpose(0, 2, 1) + damping * np.eye(k), -(J @ residual))
+        q[:, LIMB_DOFS] += delta[..., 0]
+        q = clip(q)
+    return q
+
+
+def test_the_limb_by_limb_jacobian_gives_the_full_one_number_for_number():
+    """The retarget places each limb's joints alone for its DOFs' steps: the same float64 poses as
+    placing every kept joint for every step (whose other differences were exactly zero)."""
+    rng = np.random.default_rng(9)
+    base = default_shape(1.8).values
+    q = np.stack([gait_pose(a, 5, b, c) for a, b, c in rng.uniform(-30, 40, (5, 3))])
+    bodies = base * rng.uniform(0.9, 1.1, (5, len(base)))
+    targets = limb_points(q, base, U) + rng.normal(0, 0.02, (5, 12, 3))
+    got = retarget(q, bodies, targets, U, LIMITS.clip)
+    assert np.array_equal(got, _retarget_full(q, bodies, targets, U, LIMITS.clip))
+    assert not np.array_equal(got, q)  # it did move them

@@ -14,19 +14,47 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..body.model import DOF_NAMES, POINT_INDEX, POINTS
-from .kinematics import frame_axes, place
+from ..body.model import DOF_NAMES, FRAMES, POINT_INDEX, POINTS
+from .kinematics import FRAMES_BY_NAME, frame_axes, place
 
 #: The limb angles moved (every DOF of the legs and arms).
 LIMB_DOFS = np.array([i for i, n in enumerate(DOF_NAMES) if n.startswith(("left_", "right_"))])
 #: The joints kept in place (each one below a limb angle).
 KEPT_POINTS = np.array([POINT_INDEX[f"{side}_{p}"] for side in ("left", "right")
                         for p in ("knee", "ankle", "heel", "toe", "elbow", "wrist")])
-_KEPT_FRAMES = sorted({POINTS[i].frame for i in KEPT_POINTS})
 
 
-def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
-    """(..., D) poses, (..., P) bodies -> (..., T, 3) world positions of :data:`KEPT_POINTS`.
+def _moved_by(dof: str) -> np.ndarray:
+    """Positions in :data:`KEPT_POINTS` of the kept joints below ``dof`` (its frame or one under
+    it): the only ones a change of ``dof`` moves."""
+    frame = next(f.name for f in FRAMES if any(d == dof for _, _, d in f.rotation))
+
+    def below(name):
+        while name is not None and name != frame:
+            name = FRAMES_BY_NAME[name].parent
+        return name == frame
+
+    return np.array([t for t, i in enumerate(KEPT_POINTS) if below(POINTS[i].frame)])
+
+
+#: The limb DOFs (positions in :data:`LIMB_DOFS`) grouped by the kept joints they move (positions
+#: in :data:`KEPT_POINTS`): a hip's three angles move its knee, ankle, heel and toe, the knee's
+#: angle its ankle, heel and toe, an elbow's its wrist.
+_CHAINS = []
+for _j, _d in enumerate(LIMB_DOFS):
+    _pts = _moved_by(DOF_NAMES[_d])
+    for _c in _CHAINS:
+        if np.array_equal(_c[1], _pts):
+            _c[0].append(_j)
+            break
+    else:
+        _CHAINS.append(([_j], _pts))
+_CHAINS = [(np.array(d), p) for d, p in _CHAINS]
+
+
+def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray, which=None) -> np.ndarray:
+    """(..., D) poses, (..., P) bodies -> (..., T, 3) world positions of :data:`KEPT_POINTS`
+    (``which``: only those positions of it).
 
     Only the frames above the kept points are turned and only those points placed
     (:func:`~ipf_jax.geometry.kinematics.frame_axes`, particle axis last), with the arithmetic of
@@ -38,8 +66,9 @@ def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray) -> np.ndarray:
     values = np.broadcast_to(np.asarray(values, np.float64), lead + np.shape(values)[-1:])
     q_t = q.reshape(-1, q.shape[-1]).T  # (D, B)
     v_t = values.reshape(-1, values.shape[-1]).T  # (P, B)
-    world = frame_axes(q_t, v_t, np.asarray(U, np.float64), _KEPT_FRAMES)
-    xyz = [place(world, POINTS[i].frame, POINTS[i].position, v_t) for i in KEPT_POINTS]
+    kept = KEPT_POINTS if which is None else KEPT_POINTS[which]
+    world = frame_axes(q_t, v_t, np.asarray(U, np.float64), sorted({POINTS[i].frame for i in kept}))
+    xyz = [place(world, POINTS[i].frame, POINTS[i].position, v_t) for i in kept]
     out = np.stack([np.stack(np.broadcast_arrays(*p), -1) for p in xyz], -2)  # (B, T, 3)
     return out.reshape(lead + out.shape[-2:])
 
@@ -51,15 +80,21 @@ def retarget(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarr
     Jacobian of ``step`` rad and Levenberg's ``damping``); ``clip`` keeps each pose inside the
     DOF ranges after every step. Returns (N, D)."""
     q = np.array(q, np.float64)
-    n, k = q.shape[0], len(LIMB_DOFS)
-    v = np.repeat(np.asarray(values, np.float64)[:, None], k + 1, 1)
-    eye = step * np.eye(k)
+    values = np.asarray(values, np.float64)
+    n, k, t = q.shape[0], len(LIMB_DOFS), len(KEPT_POINTS)
     for _ in range(iterations):
-        qq = np.repeat(q[:, None], k + 1, 1)
-        qq[:, 1:, LIMB_DOFS] += eye
-        p = limb_points(qq, v, U)  # (N, k + 1, T, 3)
-        residual = (p[:, 0] - targets).reshape(n, -1, 1)
-        J = ((p[:, 1:] - p[:, :1]) / step).reshape(n, k, -1)  # (N, k, 3T): J transposed
+        p0 = limb_points(q, values, U)  # (N, T, 3)
+        residual = (p0 - targets).reshape(n, -1, 1)
+        # a DOF moves only its limb's joints: the Jacobian's other entries are exactly zero (as
+        # the differences of unchanged joints were), so each limb's joints are placed alone
+        J = np.zeros((n, k, t, 3))  # J transposed: (N, k, 3T) once reshaped
+        for dofs, pts in _CHAINS:
+            m = len(dofs)
+            qq = np.repeat(q[:, None], m, 1)
+            qq[:, np.arange(m), LIMB_DOFS[dofs]] += step
+            pp = limb_points(qq, values[:, None], U, which=pts)  # (N, m, |pts|, 3)
+            J[:, dofs[:, None], pts[None, :]] = (pp - p0[:, None, pts]) / step
+        J = J.reshape(n, k, -1)
         delta = np.linalg.solve(J @ J.transpose(0, 2, 1) + damping * np.eye(k), -(J @ residual))
         q[:, LIMB_DOFS] += delta[..., 0]
         q = clip(q)
