@@ -40,16 +40,14 @@ def _moved_by(dof: str) -> np.ndarray:
 #: The limb DOFs (positions in :data:`LIMB_DOFS`) grouped by the kept joints they move (positions
 #: in :data:`KEPT_POINTS`): a hip's three angles move its knee, ankle, heel and toe, the knee's
 #: angle its ankle, heel and toe, an elbow's its wrist.
-_CHAINS = []
-for _j, _d in enumerate(LIMB_DOFS):
-    _pts = _moved_by(DOF_NAMES[_d])
-    for _c in _CHAINS:
-        if np.array_equal(_c[1], _pts):
-            _c[0].append(_j)
-            break
-    else:
-        _CHAINS.append(([_j], _pts))
-_CHAINS = [(np.array(d), p) for d, p in _CHAINS]
+def _chains() -> list[tuple[np.ndarray, np.ndarray]]:
+    groups: dict[tuple, list[int]] = {}
+    for j, d in enumerate(LIMB_DOFS):
+        groups.setdefault(tuple(_moved_by(DOF_NAMES[d])), []).append(j)
+    return [(np.array(dofs), np.array(pts)) for pts, dofs in groups.items()]
+
+
+_CHAINS = _chains()
 
 
 def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray, which=None) -> np.ndarray:
