@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ipf_jax.body.model import NUM_DOF, POINT_INDEX
-from ipf_jax.body.proportions import GROUPS
-from ipf_jax.body.shape import SHAPE_INDEX, SHAPE_PARAM_NAMES, shape_from_json, stature
+from ipf_jax.body.proportions import GROUPS, sole_to_ankle
+from ipf_jax.body.shape import SHAPE_PARAM_NAMES, shape_from_json
 from ipf_jax.errors import IPFError
 from ipf_jax.geometry.kinematics import forward_kinematics
 from ipf_jax.paths import shared_data_dir
@@ -36,9 +36,6 @@ from accuracy import set_names  # noqa: E402
 from shape_truth import truth_lengths  # noqa: E402
 
 ANKLE = next(g for g in GROUPS if g.name == "ankle").params
-#: The stature chain apart from the sole-to-ankle height (``proportions.stature``).
-ABOVE_ANKLE = ("shank", "thigh", "hip_down", "trunk", "neck", "head_high", "head_r")
-LEG_JOINTS = ("left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")
 
 
 def truth_heights(set_dir: Path) -> dict[str, float]:
@@ -64,10 +61,6 @@ def _values(params: dict) -> np.ndarray:
     return np.array([params[n] for n in SHAPE_PARAM_NAMES], np.float64)
 
 
-def sole_to_ankle(v: np.ndarray) -> float:
-    return float(stature(v)) - sum(v[SHAPE_INDEX[n]] for n in ABOVE_ANKLE)
-
-
 def hip_to_shoulder(v: np.ndarray) -> float:
     pts = forward_kinematics(np.zeros(NUM_DOF), v, np.eye(3), xp=np).points
 
@@ -84,7 +77,7 @@ def oracle_params(fitted: dict, lengths: dict, heights: dict) -> dict:
         p[k] = lengths[k]
     p["hip_half_width"] = lengths["hip_spacing"] / 2
     p["shoulder_half_width"] = lengths["shoulder_width"] / 2
-    scale = heights["ankle_height"] / sole_to_ankle(_values(p))
+    scale = heights["ankle_height"] / float(sole_to_ankle(_values(p)))
     for n in ANKLE:
         p[n] *= scale
     lo, hi, base = 0.5, 2.0, p["trunk"]

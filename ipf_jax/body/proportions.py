@@ -118,12 +118,18 @@ _I = SHAPE_INDEX
 _CHAIN = [_I[n] for n in ("shank", "thigh", "hip_down", "trunk", "neck", "head_high", "head_r")]
 
 
+def sole_to_ankle(values: np.ndarray) -> np.ndarray:
+    """(..., P) shape values -> (...) height (m) of the ankle centre over the floor, the model
+    standing straight: the lower of the foot's two sphere bottoms below it."""
+    v = np.asarray(values, np.float64)
+    return np.maximum(v[..., _I["foot_down"]] + v[..., _I["foot_r0"]],
+                      v[..., _I["foot_tip_down"]] + v[..., _I["foot_r1"]])
+
+
 def stature(values: np.ndarray) -> np.ndarray:
     """(..., P) shape values -> (...) standing height (m) of the model standing straight."""
     v = np.asarray(values, np.float64)
-    sole = np.maximum(v[..., _I["foot_down"]] + v[..., _I["foot_r0"]],
-                      v[..., _I["foot_tip_down"]] + v[..., _I["foot_r1"]])
-    return sole + v[..., _CHAIN].sum(-1)
+    return sole_to_ankle(v) + v[..., _CHAIN].sum(-1)
 
 
 def pelvis_breadth(values: np.ndarray) -> np.ndarray:
