@@ -281,11 +281,13 @@ def test_each_filter_declares_the_calls_it_makes(name, budget):
 
 
 # -- factored IPF --------------------------------------------------------------------------------
-@pytest.mark.parametrize("budget", [774, 1000, 6561, 20000])
+@pytest.mark.parametrize("budget", [774, 1000, 1152, 6561, 20000])
 def test_fipf_spends_the_budget_exactly(budget):
     f = registry.make("fipf", {}, LIMITS, FPS, budget)
-    assert f.evaluations_per_frame == budget
-    assert f.params["top_m"] == budget // 774 and f.params["filler"] == budget % 774
+    polish = 378 if budget >= 774 + 378 else 0  # the default polish: 6 sweeps of 63
+    assert f.evaluations_per_frame == budget and f.params["polish_cost"] == polish
+    rest = budget - polish
+    assert f.params["top_m"] == rest // 774 and f.params["filler"] == rest % 774
 
 
 def test_fipf_groups_cover_every_dof_once_and_bad_groups_are_refused():
@@ -325,6 +327,61 @@ def test_fipf_evaluates_what_it_reports_and_never_loses_the_best():
         weights.append(info.best_weight)
     assert weights == sorted(weights) and weights[-1] > float(measure(start)[0])
     assert fipf.max_speed("left_knee_flexion") == fipf.MAX_SPEEDS["knee_flexion"]
+
+
+@pytest.mark.parametrize("budget", [2000, 6561])
+def test_fipf_polish_spends_inside_the_budget_and_never_loses_the_best(budget):
+    """With ``polish``, the compass sweeps are counted in the budget (M shrinks to make room), the
+    calls are the declared ones, and the same frame's best is at least the unpolished best."""
+    from ipf_jax.filters.compass import sweep_cost
+    target = LIMITS.clip(np.full(NUM_DOF, 0.05))
+    calls = []
+
+    def measure(p):
+        calls.append(len(p))
+        return np.exp(-np.abs(p - target).sum(1))
+
+    cost = 6 * sweep_cost(1)
+    f = registry.make("fipf", {"polish": 6}, LIMITS, FPS, budget)
+    assert cost == 6 * (2 * NUM_DOF + 1) and f.params["polish_cost"] == cost
+    assert f.evaluations_per_frame == budget and f.params["top_m"] == (budget - cost) // 774
+    plain = registry.make("fipf", {"top_m": f.params["top_m"], "filler": f.params["filler"], "polish": 0},
+                          LIMITS, FPS)
+    start = LIMITS.clip(np.zeros(NUM_DOF))[None]
+    state = plain_state = f.init(start, measure(start))
+    for k in range(2):
+        calls.clear()
+        state, info = f.step(jax.random.PRNGKey(k), state, measure)
+        assert sum(calls) == info.evaluations == budget and tuple(calls) == f.calls
+        plain_state, plain_info = plain.step(jax.random.PRNGKey(k), plain_state, measure)
+        if k == 0:  # the same start and keys: the polish only adds to the same rounds' particles
+            assert info.best_weight > plain_info.best_weight
+    assert float(state.weights.max()) == info.best_weight  # the polished best goes on
+
+
+def test_fipf_polish_is_dropped_by_small_budgets_unless_given():
+    small = registry.make("fipf", {}, LIMITS, FPS, 300)
+    assert small.params["polish"] == 0
+    given = registry.make("fipf", {"polish": 1, "points_per_dof": 2, "rounds": 1}, LIMITS, FPS, 300)
+    assert given.params["polish"] == 1 and given.evaluations_per_frame == 300
+    with pytest.raises(IPFError, match="its polish takes 378"):
+        registry.make("fipf", {"polish": 6, "points_per_dof": 3}, LIMITS, FPS, 1000)
+
+
+def test_pattern_search_is_the_compass_search_with_the_body_held():
+    from ipf_jax.filters.compass import compass_search
+    from ipf_jax.tracking.initialise import REFINE_STD, pattern_search
+    target = LIMITS.clip(np.full(NUM_DOF, 0.1))
+    rng = np.random.default_rng(0)
+    p = LIMITS.clip(rng.normal(0, 0.05, (5, NUM_DOF)))
+
+    def measure(q, shape=None):
+        return np.exp(-np.abs(q - target).sum(1))
+
+    a = pattern_search(p, measure(p), measure, "body", LIMITS, keep=2, sweeps=3, first_step=0.5)
+    b = compass_search(p, measure(p), measure, LIMITS.clip, REFINE_STD * 0.5, keep=2, sweeps=3)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b)) and a[2] == 3 * 2 * (2 * NUM_DOF + 1)
+    assert a[1].max() > measure(p).max()
 
 
 # -- compiled draws and the host prediction: the same numbers as the plain eager code ----------

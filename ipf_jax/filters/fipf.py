@@ -46,6 +46,7 @@ from .base import (
     rate_std,
     summarise,
 )
+from .compass import SEARCH_STD, compass_search, sweep_cost
 from .selection import top_distinct
 
 #: (name, DOFs searched on the grid, DOFs that only get noise). Every DOF is in exactly one group.
@@ -108,6 +109,9 @@ class FIPFSettings(NamedTuple):
     noise_scale: float = 1.0  # multiplies the default per-DOF noise rates of the noise DOFs
     filler: int = 0  # extra noisy copies weighed with the first group (spends a budget exactly)
     groups: tuple = GROUPS
+    polish: int = 6  # compass sweeps from the best particle after the rounds (0: none; docs/fipf.md)
+    polish_keep: int = 1  # distinct particles each polish sweep starts from
+    polish_step: float = 0.25  # the first sweep's steps, as a fraction of compass.SEARCH_STD
 
     def grid_sizes(self) -> tuple[int, ...]:
         return tuple(self.points_per_dof ** len(grid) for _, grid, _ in self.groups)
@@ -116,15 +120,19 @@ class FIPFSettings(NamedTuple):
         """Evaluations per kept particle per frame: rounds x the sum of the group grids."""
         return self.rounds * sum(self.grid_sizes())
 
+    def polish_cost(self) -> int:
+        """Evaluations of the polish: ``polish`` compass sweeps of ``polish_keep`` particles."""
+        return self.polish * sweep_cost(self.polish_keep)
+
     def evaluations(self) -> int:
-        return self.top_m * self.cost_per_particle() + self.filler
+        return self.top_m * self.cost_per_particle() + self.filler + self.polish_cost()
 
     def calls(self) -> tuple[int, ...]:
         """Particles of each measure call of a frame: one per group and round (the filler with
-        the first)."""
+        the first), then two per polish sweep (the moves, the combined moves)."""
         sizes = [self.top_m * g for _ in range(self.rounds) for g in self.grid_sizes()]
         sizes[0] += self.filler
-        return tuple(sizes)
+        return tuple(sizes) + (2 * NUM_DOF * self.polish_keep, self.polish_keep) * self.polish
 
 
 def validate(settings: FIPFSettings) -> None:
@@ -135,6 +143,9 @@ def validate(settings: FIPFSettings) -> None:
     require(settings.speed_scale > 0, f"speed scale must be > 0 (got {settings.speed_scale})")
     require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
     require(settings.filler >= 0, f"filler must be >= 0 (got {settings.filler})")
+    require(settings.polish >= 0, f"polish sweeps must be >= 0 (got {settings.polish})")
+    require(settings.polish_keep >= 1, f"polish keep must be >= 1 (got {settings.polish_keep})")
+    require(settings.polish_step > 0, f"polish step must be > 0 (got {settings.polish_step})")
     named = [d for _, grid, noise in settings.groups for d in (*grid, *noise)]
     unknown = [d for d in named if d not in DOF_INDEX]
     require(not unknown, f"unknown DOF in the groups: {', '.join(unknown)}")
@@ -207,6 +218,7 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
     all_std = rate_std(default_noise_rates(), fps) * settings.noise_scale
     n = settings.evaluations()
     n_keys = settings.rounds * len(stages) + 1
+    polish_step = SEARCH_STD * settings.polish_step
 
     def shapes_for(k: int) -> tuple:
         """(key index, shape) of each draw of a frame that starts from ``k`` kept particles."""
@@ -241,15 +253,26 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
                 seen_w.append(w)
                 top = top_distinct(cand, w, m)
                 kept = cand[top]
+        last_p, last_w = seen_p[-1], seen_w[-1]
+        if settings.polish:  # the last degrees and millimetres: compass sweeps from the best
+            pool_p, pool_w, _ = compass_search(last_p, last_w, lambda q: np.asarray(measure(q), float),
+                                               limits.clip, polish_step, keep=settings.polish_keep,
+                                               sweeps=settings.polish)
+            seen_p.append(pool_p)
+            seen_w.append(pool_w)
+            last_p, last_w = np.concatenate([last_p, pool_p]), np.concatenate([last_w, pool_w])
         particles, weights = np.concatenate(seen_p), np.concatenate(seen_w)
         info = summarise(particles, weights, n)
-        # the next frame starts from the last group's children (the M best are among them)
-        return FilterState(seen_p[-1], seen_w[-1]), info
+        # the next frame starts from the last group's children (the M best are among them) and
+        # the polish's last sweep
+        return FilterState(last_p, last_w), info
 
     params = {"top_m": m, "points_per_dof": settings.points_per_dof, "rounds": settings.rounds,
               "shrink": settings.shrink, "speed_scale": settings.speed_scale,
               "noise_scale": settings.noise_scale, "filler": settings.filler,
               "groups": {name: list(grid) for name, grid, _ in settings.groups},
               "grid_sizes": list(settings.grid_sizes()),
-              "cost_per_particle": settings.cost_per_particle(), "particles": n}
+              "cost_per_particle": settings.cost_per_particle(), "polish": settings.polish,
+              "polish_keep": settings.polish_keep, "polish_step": settings.polish_step,
+              "polish_cost": settings.polish_cost(), "particles": n}
     return Filter("fipf", init_state, step, n, params, settings.calls(), draws)

@@ -5,10 +5,11 @@ user did not give so that it spends as much of the budget as it can without exce
 
 ========  =====================================================================================
 ipf       M = budget // I (I = P^|L| grid points; ``particles`` stands for M x I the same way)
-fipf      M = budget // (rounds x sum of the group grids); the remainder is ``filler`` (noisy
-          copies), so the budget is spent exactly (``particles`` stands for the budget); with
-          neither, the paper's 6561. Below 774 (3 points per DOF, 2 rounds), unless given: 2
-          points (168), then 2 points and 1 round (84)
+fipf      the polish first (6 compass sweeps of one particle: 378), then M = the rest //
+          (rounds x sum of the group grids); the remainder is ``filler`` (noisy copies), so the
+          budget is spent exactly (``particles`` stands for the budget); with neither, the
+          paper's 6561. Below 1152 (the polish and one particle's 3-point grids), unless given:
+          no polish; below 774, 2 points (168), then 2 points and 1 round (84)
 apf       particles = budget // layers; or, with ``particles`` given, layers = budget // particles
 sir       particles = budget
 ========  =====================================================================================
@@ -142,13 +143,15 @@ def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
     settings = fipf.FIPFSettings(**options)
     fipf.validate(settings)  # the given sizes first: the total is divided by the grids
     if total is not None:
-        for fallback in ({"points_per_dof": 2}, {"points_per_dof": 2, "rounds": 1}):
-            if total >= settings.cost_per_particle() or set(fallback) & set(options):
-                break  # small budgets: coarser grids unless the user chose them
+        for fallback in ({"polish": 0}, {"polish": 0, "points_per_dof": 2},
+                         {"polish": 0, "points_per_dof": 2, "rounds": 1}):
+            if total - settings.polish_cost() >= settings.cost_per_particle() or set(fallback) & set(options):
+                break  # small budgets: no polish, then coarser grids, unless the user chose them
             settings = settings._replace(**fallback)
-        cost = settings.cost_per_particle()
-        require(total >= cost, f"{total} evaluations cannot search the groups once per kept particle "
+        cost, rest = settings.cost_per_particle(), total - settings.polish_cost()
+        require(rest >= cost, f"{total} evaluations cannot search the groups once per kept particle "
                 f"(the factored filter needs {cost} per kept particle: {settings.rounds} round(s) "
-                f"over grids of {'+'.join(map(str, settings.grid_sizes()))})")
-        settings = settings._replace(top_m=total // cost, filler=total % cost)
+                f"over grids of {'+'.join(map(str, settings.grid_sizes()))}"
+                + (f"; its polish takes {settings.polish_cost()}" if settings.polish else "") + ")")
+        settings = settings._replace(top_m=rest // cost, filler=rest % cost)
     return settings

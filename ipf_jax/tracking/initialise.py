@@ -30,6 +30,7 @@ from ..body.model import DOF_INDEX, DOF_NAMES, NUM_DOF
 from ..body.shape import LENGTH_GROUPS, BodyShape
 from ..errors import IPFError
 from ..filters.base import gaussian_noise
+from ..filters.compass import SEARCH_STD, compass_search
 from ..filters.selection import top_distinct
 from ..geometry.camera import Camera
 from ..geometry.host import forward_kinematics
@@ -49,10 +50,7 @@ PART_GROUPS = (_group("root", "trunk"), _group("left_hip", "left_knee", "left_an
                _group("right_hip", "right_knee", "right_ankle"), _group("left_shoulder", "left_elbow"),
                _group("right_shoulder", "right_elbow"), _group("head"))
 #: First-round noise std per DOF (m, rad).
-REFINE_STD = np.concatenate([[0.08, 0.08, 0.04], np.deg2rad([25.0, 8.0, 8.0]),
-                             np.full(NUM_DOF - 6, np.deg2rad(15.0))])
-# rotations about long axes are weakly observable: search them gently (see filters.base)
-REFINE_STD[[i for i, n in enumerate(DOF_NAMES) if n.endswith(("_rotation", "ankle_inversion"))]] = np.deg2rad(5.0)
+REFINE_STD = SEARCH_STD  # the initialisation's random refinement draws at this scale
 
 
 class InitSettings(NamedTuple):
@@ -358,31 +356,10 @@ def limb_grids(particles, weights, measure, shape, limits, *, keep: int):
 
 def pattern_search(particles, weights, measure, shape, limits, *, keep: int, sweeps: int,
                    first_step: float = 0.5):
-    """Compass search from the best distinct configurations: each sweep tries +-step on every DOF,
-    then the combination of all improving steps (Hooke-Jeeves' exploratory move); steps halve.
-
-    Deterministic, and good at the last centimetres and degrees where random moves in 31
-    dimensions rarely improve all at once. Returns the pooled particles, weights, evaluations.
-    """
-    step = REFINE_STD * first_step
-    n_dof = particles.shape[1]
-    evaluations = 0
-    for _ in range(sweeps):
-        idx = top_distinct(particles, weights, keep)
-        kept, kept_w = particles[idx], weights[idx]
-        moves = np.concatenate([np.diag(step), -np.diag(step)])  # (2D, D)
-        cand = limits.clip((kept[:, None, :] + moves[None]).reshape(-1, n_dof))
-        w = measure(cand, shape).reshape(len(kept), 2 * n_dof)
-        gain = w - kept_w[:, None]
-        up, down = gain[:, :n_dof], gain[:, n_dof:]
-        direction = np.where((up > 0) & (up >= down), 1.0, np.where(down > 0, -1.0, 0.0))
-        combined = limits.clip(kept + direction * step)
-        wc = measure(combined, shape)
-        evaluations += cand.shape[0] + len(combined)
-        particles = np.concatenate([kept, cand, combined])
-        weights = np.concatenate([kept_w, w.ravel(), wc])
-        step = step * 0.5
-    return particles, weights, evaluations
+    """:func:`~ipf_jax.filters.compass.compass_search` with ``shape`` held, its first steps
+    ``first_step`` x :data:`REFINE_STD`. Returns the pooled particles, weights, evaluations."""
+    return compass_search(particles, weights, lambda q: measure(q, shape), limits.clip,
+                          REFINE_STD * first_step, keep=keep, sweeps=sweeps)
 
 
 def _refine_height(particles, weights, base_shape, h0, measure, U):

@@ -121,6 +121,9 @@ OPTIONS: tuple[Option, ...] = (
            "by --shrink" + _filter_default("fipf", "rounds"), "filter", check=_at_least(1)),
     Option("shrink", "--shrink", "float", None, "FIPF: interval width multiplier from one round to "
            "the next (default 1/3)", "filter", check=_within(0.01, 1.0)),
+    Option("polish", "--polish", "int", None, "FIPF: compass sweeps from the best particle after "
+           "the rounds, inside the budget (0: none; docs/fipf.md)" + _filter_default("fipf", "polish"),
+           "filter", check=_at_least(0)),
     Option("speed_scale", "--speed-scale", "float", None, "FIPF: multiply every DOF's maximum "
            "speed (the interval half-width is speed / fps; default 1)", "filter", check=_positive),
     Option("interval_width_deg", "--interval-width", "float", None, "IPF: full interval width, "
