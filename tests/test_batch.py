@@ -13,7 +13,8 @@ from ipf_jax.sweep import backends, read_manifest
 # two frames (initialisation from the given pose + one filter step): the batch command has the
 # track command's options, which cannot switch re-initialisation off for a tiny filter
 TRACK = ["--frames", "0:2", "--init-pose", "pose0.csv", "--height", str(default_shape().height_m),
-         "--up", "+z", "--chunk", "64", "--top-m", "2", "--points-per-dof", "2", "--quiet"]
+         "--up", "+z", "--chunk", "64", "--top-m", "2", "--points-per-dof", "2", "--polish", "0",
+         "--quiet"]
 
 
 @pytest.fixture(scope="module")

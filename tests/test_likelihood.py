@@ -278,7 +278,9 @@ def test_no_retrace_across_frames(scene):
 def test_chunk_sizes_follow_the_filters_calls():
     """IPF's one call of 6561 gets 16 chunks of 416 in one compiled call (the same 6656 particles
     as 13 chunks of 512, in one call instead of 13); the factored filter's 14 calls of 1017, 648,
-    216 and 72 particles (M 8) get chunks of 216, which pad 6,912 particles instead of 11,264."""
+    216 and 72 particles (M 8, no polish) get chunks of 216, which pad 6,912 particles instead of
+    11,264; with its default polish (M 7: calls of 1332, 567, 189 and 63, then 6 x (62, 1)) chunks
+    of 72 in blocks of 8, which pad 7,272 instead of 17,920."""
     from ipf_jax.body.limits import load_limits
     from ipf_jax.filters import registry
     from ipf_jax.likelihood.scorer import Chunking, call_blocks, pick_chunking
@@ -288,10 +290,14 @@ def test_chunk_sizes_follow_the_filters_calls():
     assert call_blocks(6561, Chunking(416, 16)) == [16]
     assert call_blocks(6561, Chunking(512, 8)) == [8, 1, 1, 1, 1, 1]
     assert call_blocks(6561, Chunking(512)) == [1] * 13
-    fipf = make("fipf")
+    fipf = registry.make("fipf", {"polish": 0}, limits, 20.0, budget=6561)
     assert pick_chunking(fipf.calls).chunk == 216
     assert sum(-(-n // 216) * 216 for n in fipf.calls) == 6912
     assert sum(-(-n // 512) * 512 for n in fipf.calls) == 11264
+    polished = make("fipf")
+    assert pick_chunking(polished.calls) == Chunking(72, 8)
+    assert sum(-(-n // 72) * 72 for n in polished.calls) == 7272
+    assert sum(-(-n // 512) * 512 for n in polished.calls) == 17920
     assert pick_chunking([6561], chunk=512).chunk == 512  # --chunk: only the block is chosen
 
 
