@@ -680,14 +680,17 @@ class Tracker:
                 seen = reader.take(frame)
                 if state.next_index + 1 < len(self.frames):
                     reader.start(self.frames[state.next_index + 1])
-                state, rec = self.track_frame(state, frame, seen)
+                # ``state`` stays the one before this frame until the frame's rows are written:
+                # a stop (Ctrl-C, SIGTERM) in between saves that state, and --resume tracks the
+                # frame again from it (not from the frame's own result, which gave other rows)
+                done, rec = self.track_frame(state, frame, seen)
                 if state.next_index + 1 < len(self.frames):
-                    self.draw_ahead(state, self.frames[state.next_index + 1])
+                    self.draw_ahead(done, self.frames[state.next_index + 1])
                 joints_csv.write(frame, rec.time_s, rec.points.ravel())
                 poses_csv.write(frame, rec.time_s, rec.pose)
                 rec.info["seconds"] = round(time.perf_counter() - t0, 4)
-                state = state._replace(next_index=state.next_index + 1, rows=state.rows + 1,
-                                       records=(*state.records, rec.info))
+                state = done._replace(next_index=state.next_index + 1, rows=state.rows + 1,
+                                      records=(*state.records, rec.info))
                 bar.set_postfix(w=rec.info.get("weight"), conf=rec.info.get("confidence"))
                 if rec.info["status"] == "init":
                     shape_written = self.shape_doc(state)
