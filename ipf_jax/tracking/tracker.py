@@ -6,7 +6,8 @@ the paper's stages; :class:`~ipf_jax.tracking.state.TrackState` is everything ca
 frame and is the checkpoint. :meth:`Tracker.run` only reads frames (the next one on a
 background thread while this one is tracked: :mod:`.prefetch`), writes rows (appended and flushed
 per frame, fsynced before each checkpoint), checkpoints every K frames and shows progress, so
-``resume=True`` continues exactly where a run stopped.
+``resume=True`` continues exactly where a run stopped: the state saved on a stop is the one before
+the frame whose rows were not yet written, however late in that frame the stop lands.
 
 Per frame: every camera's mask is resized once to the scoring resolution; a camera with an empty
 mask is skipped (recorded); a frame where no camera shows a person-sized blob is written as
@@ -680,10 +681,7 @@ class Tracker:
                 seen = reader.take(frame)
                 if state.next_index + 1 < len(self.frames):
                     reader.start(self.frames[state.next_index + 1])
-                # ``state`` stays the one before this frame until the frame's rows are written:
-                # a stop (Ctrl-C, SIGTERM) in between saves that state, and --resume tracks the
-                # frame again from it (not from the frame's own result, which gave other rows)
-                done, rec = self.track_frame(state, frame, seen)
+                done, rec = self.track_frame(state, frame, seen)  # ``state``: until the rows are written
                 if state.next_index + 1 < len(self.frames):
                     self.draw_ahead(done, self.frames[state.next_index + 1])
                 joints_csv.write(frame, rec.time_s, rec.points.ravel())
