@@ -1,6 +1,7 @@
 """SELF-RENDERED: can the shape fit find a body it could draw exactly?
 
     python benchmarks/shape_recovery.py --out DIR [--seeds 0,1] [--bodies template_shod,long_legs]
+        [--passes 2] [--fit-from-truth DEG]
 
 Each body below is the model's own template with some group factors changed, scaled to 1.80 m.
 A procedural walk (24 frames, 20 Hz) of that body is rendered by the tracker's own capsule model
@@ -10,6 +11,14 @@ fit's and the tracker's own error, without the model mismatch of the mocap rende
 factors against the true ones, the fitted thigh, shank and sole-to-ankle height against the
 truth's, and the 12 limb joints' MPJPE and hip/knee/ankle constant offset. It is **not** an
 accuracy claim: docs/shape_fit.md uses it to tell the fit's own error from the model's.
+
+``--passes 2`` tracks in two passes (``ipf_jax.tracking.passes``: the shape refitted on the
+tracked frames, then tracked again). ``--fit-from-truth DEG`` tracks nothing: the shape fit alone
+(``fit_shape``, the defaults for 4 cameras) runs on the 8 frames the tracker would choose, seeded
+with the truth's own poses (DEG = 0: one exact pose per frame; DEG > 0: 4 poses per frame with
+every joint angle and the root's rotation moved by N(0, DEG) degrees and the root by N(0, DEG / 2)
+cm), from the template at 1.75 m with its feet on the floor: can the fit find the body when the
+poses are (nearly) right? Its rows have no joint errors.
 
 Writes DIR/<body>_s<seed>/ (the dataset and the run) and DIR/shape_recovery.json, and prints a
 markdown table.
@@ -28,9 +37,12 @@ from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
 from ipf_jax.body.proportions import GROUP_NAMES, build, group_factors, sole_to_ankle, stature
 from ipf_jax.body.shape import BodyShape, default_shape, shape_from_json
 from ipf_jax.data.dataset import open_dataset
+from ipf_jax.likelihood.scorer import SMALL_CHUNKS
+from ipf_jax.tracking import shape_fit as sf
 from ipf_jax.tracking.initialise import InitSettings
+from ipf_jax.tracking.passes import track
 from ipf_jax.tracking.shape_fit import ShapeFitSettings
-from ipf_jax.tracking.tracker import TrackSettings, track
+from ipf_jax.tracking.tracker import Tracker, TrackSettings
 from ipf_jax.viz import synthetic as syn
 
 HEIGHT_M = 1.80
@@ -61,37 +73,74 @@ def body(name: str) -> BodyShape:
     return BodyShape(values, float(stature(values)))
 
 
-def run_one(name: str, seed: int, out: Path) -> dict:
+def scene_of(name: str, out: Path):
+    """The body, its walk's poses and the rendered data set (written once)."""
     shape = body(name)
     # on the diagonals of the walk: a ring at 0/90/180/270 deg sees mirror pairs, whose
     # silhouettes cannot tell the left leg from the right
     cams = syn.ring_cameras(4, radius=4.0, focal_px=380.0, first_angle_deg=-45.0)
     q = syn.procedural_walk(FRAMES, FPS, shape=shape, heading_deg=10.0, start=(-0.5, -0.2))
-    data = syn.write_dataset(out / "dataset", cams, syn.render_masks(q, shape, cams))
-    truth = syn.joints_of(q, shape)
-    res = track(open_dataset(data), out / "run",
-                TrackSettings(seed=seed, fps=FPS, init=InitSettings(), shape_fit=ShapeFitSettings()))
-    fitted = shape_from_json(res.run["shape"])
-    limb = [POINT_NAMES.index(j) for j in LIMB_JOINTS]
-    split = split_offsets(res.joints[:, limb] - truth[:, limb], LIMB_JOINTS)
-    legs = [LIMB_JOINTS.index(j) for j in LEG_JOINTS]
+    data = out / "dataset"
+    if not (data / "dataset.json").exists():
+        syn.write_dataset(data, cams, syn.render_masks(q, shape, cams))
+    return shape, q, data
+
+
+def fit_from_truth(data: Path, q: np.ndarray, noise_deg: float, seed: int) -> tuple[BodyShape, dict]:
+    """The shape fit alone, seeded with the truth's poses (module doc, ``--fit-from-truth``)."""
+    tracker = Tracker(open_dataset(data), TrackSettings(seed=seed, fps=FPS))
+    scene = tracker.fit_scene()
+    ref = default_shape(1.75)
+    scorer = sf.fit_scorer(scene, ref)
+    rng = np.random.default_rng(seed)
+    fits = []
+    for f in sf.spread_frames(list(scene.frames), ShapeFitSettings().frames):
+        poses = np.repeat(q[f][None], 4 if noise_deg > 0 else 1, 0)
+        poses[:, :3] += rng.normal(0.0, noise_deg / 200, (len(poses), 3))
+        poses[:, 3:] += np.deg2rad(rng.normal(0.0, noise_deg, (len(poses), poses.shape[1] - 3)))
+        values = np.broadcast_to(ref.values, (len(poses), len(ref.values)))
+        poses = scene.limits.clip(sf.place_on_floor_many(poses, values, scene.U))
+        fn = sf.shape_measure(scorer, scene.observe(f)[0], scene.prior)
+        fits.append(sf.FramePoses(f, fn, poses, fn(poses, values.astype(np.float32))))
+    scorer.set_small_chunks(SMALL_CHUNKS)
+    res = sf.fit_shape(fits, ref, scene.U, scene.limits, seed=seed,
+                       settings=sf.for_views(ShapeFitSettings(), len(scene.cameras)))
+    return res.shape, {"evaluations": res.evaluations, "score_history": res.doc["score_history"]}
+
+
+def run_one(name: str, seed: int, out: Path, passes: int = 1, truth_noise: float | None = None) -> dict:
+    shape, q, data = scene_of(name, out)
+    row = {"body": name, "seed": seed, "self_rendered": True, "passes": passes,
+           "fit_from_truth_deg": truth_noise}
+    if truth_noise is not None:
+        fitted, info = fit_from_truth(data, q, truth_noise, seed)
+        row["fit"] = info
+    else:
+        res = track(open_dataset(data), out / "run", TrackSettings(
+            seed=seed, fps=FPS, init=InitSettings(), shape_fit=ShapeFitSettings(), passes=passes))
+        fitted = shape_from_json(res.run["shape"])
+        truth = syn.joints_of(q, shape)
+        limb = [POINT_NAMES.index(j) for j in LIMB_JOINTS]
+        split = split_offsets(res.joints[:, limb] - truth[:, limb], LIMB_JOINTS)
+        legs = [LIMB_JOINTS.index(j) for j in LEG_JOINTS]
+        row.update({
+            "mpjpe_mm": round(1000 * float(split.mpjpe_m.mean()), 2),
+            "offset_free_mm": round(1000 * float(split.offset_free_m.mean()), 2),
+            "leg_offset_mm": round(1000 * float(split.offset_m[legs].mean()), 2),
+            "leg_offset_up_mm": {j: round(1000 * float(split.offset[LIMB_JOINTS.index(j), 2]), 1)
+                                 for j in LEG_JOINTS},
+            "fit_seconds": res.run.get("shape_fit", {}).get("seconds")})
     true_f = dict(zip(GROUP_NAMES, group_factors(shape.values)))
     fit_f = dict(zip(GROUP_NAMES, group_factors(fitted.values)))
     mm = {k: 1000 * float(v) for k, v in (
         ("thigh_true", shape["thigh"]), ("thigh_fit", fitted["thigh"]),
         ("shank_true", shape["shank"]), ("shank_fit", fitted["shank"]),
         ("ankle_true", sole_to_ankle(shape.values)), ("ankle_fit", sole_to_ankle(fitted.values)))}
-    return {"body": name, "seed": seed, "self_rendered": True,
-            "height_true_m": shape.height_m, "height_fit_m": fitted.height_m,
-            "factors_true": {g: round(float(true_f[g]), 4) for g in GROUP_NAMES},
-            "factors_fit": {g: round(float(fit_f[g]), 4) for g in GROUP_NAMES},
-            "lengths_mm": {k: round(v, 1) for k, v in mm.items()},
-            "mpjpe_mm": round(1000 * float(split.mpjpe_m.mean()), 2),
-            "offset_free_mm": round(1000 * float(split.offset_free_m.mean()), 2),
-            "leg_offset_mm": round(1000 * float(split.offset_m[legs].mean()), 2),
-            "leg_offset_up_mm": {j: round(1000 * float(split.offset[LIMB_JOINTS.index(j), 2]), 1)
-                                 for j in LEG_JOINTS},
-            "fit_seconds": res.run.get("shape_fit", {}).get("seconds")}
+    row.update({"height_true_m": shape.height_m, "height_fit_m": fitted.height_m,
+                "factors_true": {g: round(float(true_f[g]), 4) for g in GROUP_NAMES},
+                "factors_fit": {g: round(float(fit_f[g]), 4) for g in GROUP_NAMES},
+                "lengths_mm": {k: round(v, 1) for k, v in mm.items()}})
+    return row
 
 
 def table(rows: list[dict]) -> str:
@@ -100,10 +149,11 @@ def table(rows: list[dict]) -> str:
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         ft, ff, L = r["factors_true"], r["factors_fit"], r["lengths_mm"]
-        up = r["leg_offset_up_mm"]
+        up = r.get("leg_offset_up_mm", {"left_hip": np.nan, "right_hip": np.nan})  # none: fit alone
+        mpjpe, free, legs = (r.get(k, np.nan) for k in ("mpjpe_mm", "offset_free_mm", "leg_offset_mm"))
         lines.append(
-            f"| {r['body']} s{r['seed']} | {r['mpjpe_mm']:.1f} | {r['offset_free_mm']:.1f} | "
-            f"{r['leg_offset_mm']:.1f} | {up['left_hip']:+.0f} / {up['right_hip']:+.0f} | "
+            f"| {r['body']} s{r['seed']} | {mpjpe:.1f} | {free:.1f} | "
+            f"{legs:.1f} | {up['left_hip']:+.0f} / {up['right_hip']:+.0f} | "
             + " | ".join(f"{ft[g]:.2f} -> {ff[g]:.2f}" for g in REPORTED)
             + f" | {L['thigh_fit'] - L['thigh_true']:+.0f} / {L['shank_fit'] - L['shank_true']:+.0f}"
             f" / {L['ankle_fit'] - L['ankle_true']:+.0f} |")
@@ -115,6 +165,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--seeds", default="0")
     ap.add_argument("--bodies", default=",".join(BODIES))
+    ap.add_argument("--passes", type=int, choices=(1, 2), default=1)
+    ap.add_argument("--fit-from-truth", type=float, default=None, metavar="DEG",
+                    help="no tracking: the shape fit seeded with the truth's poses, DEG of noise")
     a = ap.parse_args(argv)
     out = Path(a.out)
     names = a.bodies.split(",")
@@ -125,7 +178,7 @@ def main(argv=None) -> int:
     rows = []
     for seed in (int(s) for s in a.seeds.split(",")):
         for name in names:
-            rows.append(run_one(name, seed, out / f"{name}_s{seed}"))
+            rows.append(run_one(name, seed, out / f"{name}_s{seed}", a.passes, a.fit_from_truth))
             (out / "shape_recovery.json").write_text(json.dumps({"rows": rows}, indent=1))
             print(table(rows[-1:]), flush=True)
     print(table(rows))
