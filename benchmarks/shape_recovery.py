@@ -175,6 +175,9 @@ def main(argv=None) -> int:
     if unknown:
         print(f"error: unknown body {unknown[0]!r} (known: {', '.join(BODIES)})", file=sys.stderr)
         return 2
+    if a.fit_from_truth is not None and not a.fit_from_truth >= 0:
+        print(f"error: --fit-from-truth must be >= 0 degrees (got {a.fit_from_truth})", file=sys.stderr)
+        return 2
     rows = []
     for seed in (int(s) for s in a.seeds.split(",")):
         for name in names:
