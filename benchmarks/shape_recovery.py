@@ -37,7 +37,6 @@ from ipf_jax.body.model import LIMB_JOINTS, POINT_NAMES
 from ipf_jax.body.proportions import GROUP_NAMES, build, group_factors, sole_to_ankle, stature
 from ipf_jax.body.shape import BodyShape, default_shape, shape_from_json
 from ipf_jax.data.dataset import open_dataset
-from ipf_jax.likelihood.scorer import SMALL_CHUNKS
 from ipf_jax.tracking import shape_fit as sf
 from ipf_jax.tracking.initialise import InitSettings
 from ipf_jax.tracking.passes import track
@@ -88,23 +87,17 @@ def scene_of(name: str, out: Path):
 
 def fit_from_truth(data: Path, q: np.ndarray, noise_deg: float, seed: int) -> tuple[BodyShape, dict]:
     """The shape fit alone, seeded with the truth's poses (module doc, ``--fit-from-truth``)."""
-    tracker = Tracker(open_dataset(data), TrackSettings(seed=seed, fps=FPS))
-    scene = tracker.fit_scene()
+    scene = Tracker(open_dataset(data), TrackSettings(seed=seed, fps=FPS)).fit_scene()
     ref = default_shape(1.75)
-    scorer = sf.fit_scorer(scene, ref)
     rng = np.random.default_rng(seed)
-    fits = []
+    poses = {}
     for f in sf.spread_frames(list(scene.frames), ShapeFitSettings().frames):
-        poses = np.repeat(q[f][None], 4 if noise_deg > 0 else 1, 0)
-        poses[:, :3] += rng.normal(0.0, noise_deg / 200, (len(poses), 3))
-        poses[:, 3:] += np.deg2rad(rng.normal(0.0, noise_deg, (len(poses), poses.shape[1] - 3)))
-        values = np.broadcast_to(ref.values, (len(poses), len(ref.values)))
-        poses = scene.limits.clip(sf.place_on_floor_many(poses, values, scene.U))
-        fn = sf.shape_measure(scorer, scene.observe(f)[0], scene.prior)
-        fits.append(sf.FramePoses(f, fn, poses, fn(poses, values.astype(np.float32))))
-    scorer.set_small_chunks(SMALL_CHUNKS)
-    res = sf.fit_shape(fits, ref, scene.U, scene.limits, seed=seed,
-                       settings=sf.for_views(ShapeFitSettings(), len(scene.cameras)))
+        p = np.repeat(q[f][None], 4 if noise_deg > 0 else 1, 0)
+        p[:, :3] += rng.normal(0.0, noise_deg / 200, (len(p), 3))
+        p[:, 3:] += np.deg2rad(rng.normal(0.0, noise_deg, (len(p), p.shape[1] - 3)))
+        values = np.broadcast_to(ref.values, (len(p), len(ref.values)))
+        poses[f] = scene.limits.clip(sf.place_on_floor_many(p, values, scene.U))
+    res = sf.fit_on_poses(scene, poses, ref, height_m=None, seed=seed)
     return res.shape, {"evaluations": res.evaluations, "score_history": res.doc["score_history"]}
 
 

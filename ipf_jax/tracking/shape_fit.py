@@ -565,18 +565,28 @@ def refit_from_track(scene: Scene, tracked: dict[int, np.ndarray], shape: BodySh
     tracked : frame -> (D,) pose of the first pass (tracked frames only).
     """
     frames = spread_frames(sorted(tracked), settings.refit_frames)
+    poses = {f: scene.limits.clip(np.asarray(tracked[f], np.float64)[None]) for f in frames}
+    res = fit_on_poses(scene, poses, shape, height_m=height_m, settings=settings, seed=seed)
+    return res._replace(doc=dict(res.doc, passes=2, evaluations=res.evaluations))
+
+
+def fit_on_poses(scene: Scene, poses: dict[int, np.ndarray], shape: BodyShape, *,
+                 height_m: float | None, settings: ShapeFitSettings = ShapeFitSettings(),
+                 seed: int = 0) -> ShapeFitResult:
+    """The shape fit (:func:`fit_shape`, :func:`for_views` the scene's cameras) on the frames of
+    ``poses`` (frame -> (M, D) poses to start from, within the limits), with ``shape`` as the
+    reference body: the refit of pass 2, and ``benchmarks/shape_recovery.py``'s fit from the
+    truth's poses."""
     scorer = fit_scorer(scene, shape)
+    values = np.asarray(shape.values, np.float32)
     fits = []
-    for f in frames:
+    for f, q in poses.items():
         obs, _ = scene.observe(f)
         fn = shape_measure(scorer, obs, scene.prior)
-        q = scene.limits.clip(np.asarray(tracked[f], np.float64)[None])
-        w = fn(q, np.broadcast_to(np.asarray(shape.values, np.float32), (1, len(shape.values))))
-        fits.append(FramePoses(f, fn, q, w))
+        fits.append(FramePoses(f, fn, q, fn(q, np.broadcast_to(values, (len(q), len(values))))))
     scorer.set_small_chunks(SMALL_CHUNKS)  # as in calibrate_at_start
-    res = fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m,
-                    settings=for_views(settings, len(scene.cameras)), seed=seed)
-    return res._replace(doc=dict(res.doc, passes=2, evaluations=res.evaluations))
+    return fit_shape(fits, shape, scene.U, scene.limits, height_m=height_m,
+                     settings=for_views(settings, len(scene.cameras)), seed=seed)
 
 
 def shape_doc(shape: BodyShape, source: str, fit: dict | None = None) -> dict:
@@ -605,6 +615,7 @@ __all__ = [
     "ShapeFitResult",
     "ShapeFitSettings",
     "calibrate_at_start",
+    "fit_on_poses",
     "fit_shape",
     "lowest_heights",
     "place_on_floor_many",
