@@ -46,6 +46,7 @@ from .base import (
     rate_std,
     summarise,
 )
+from . import posture
 from .compass import SEARCH_STD, compass_search, sweep_cost
 from .selection import top_distinct
 
@@ -112,9 +113,21 @@ class FIPFSettings(NamedTuple):
     polish: int = 6  # compass sweeps from the best particle after the rounds (0: none; docs/fipf.md)
     polish_keep: int = 1  # distinct particles each polish sweep starts from
     polish_step: float = 0.25  # the first sweep's steps, as a fraction of compass.SEARCH_STD
+    posture: bool = True  # the posture group after the trunk's (.posture; needs the body)
+
+    def stages(self) -> tuple[str, ...]:
+        """The names of the searches of a round, in order: the groups, and the posture group
+        after the trunk's (after the first group when there is no trunk group)."""
+        names = [name for name, _, _ in self.groups]
+        if self.posture:
+            names.insert(names.index("trunk") + 1 if "trunk" in names else 1, posture.NAME)
+        return tuple(names)
 
     def grid_sizes(self) -> tuple[int, ...]:
-        return tuple(self.points_per_dof ** len(grid) for _, grid, _ in self.groups)
+        """Grid points of each search of a round (:meth:`stages`' order)."""
+        size = {name: self.points_per_dof ** len(grid) for name, grid, _ in self.groups}
+        size[posture.NAME] = self.points_per_dof ** 3
+        return tuple(size[name] for name in self.stages())
 
     def cost_per_particle(self) -> int:
         """Evaluations per kept particle per frame: rounds x the sum of the group grids."""
@@ -146,6 +159,8 @@ def validate(settings: FIPFSettings) -> None:
     require(settings.polish >= 0, f"polish sweeps must be >= 0 (got {settings.polish})")
     require(settings.polish_keep >= 1, f"polish keep must be >= 1 (got {settings.polish_keep})")
     require(settings.polish_step > 0, f"polish step must be > 0 (got {settings.polish_step})")
+    require(all(name != posture.NAME for name, _, _ in settings.groups),
+            f"a group may not be called {posture.NAME!r} (the posture group's name)")
     named = [d for _, grid, noise in settings.groups for d in (*grid, *noise)]
     unknown = [d for d in named if d not in DOF_INDEX]
     require(not unknown, f"unknown DOF in the groups: {', '.join(unknown)}")
@@ -166,6 +181,7 @@ def group_grid(grid_dofs: tuple[str, ...], settings: FIPFSettings, fps: float) -
 
 
 class _Stage(NamedTuple):
+    name: str
     grid_idx: np.ndarray  # (|g|,) DOF indices on the grid
     noise_idx: np.ndarray  # (|n|,) DOF indices that get noise
     offsets: np.ndarray  # (G, |g|) round-0 grid offsets
@@ -174,11 +190,20 @@ class _Stage(NamedTuple):
 
 
 def _stages(settings: FIPFSettings, fps: float) -> list[_Stage]:
+    """The searches of a round in order; the posture group's offsets are its own (forward, up,
+    pitch: :func:`.posture.grid`), with no DOF indices and no noise."""
     std = rate_std(default_noise_rates(), fps) * settings.noise_scale
+    groups = {name: (grid, noise) for name, grid, noise in settings.groups}
     out = []
-    for _, grid, noise in settings.groups:
+    for name in settings.stages():
+        if name == posture.NAME:
+            offsets = posture.grid(settings.points_per_dof, fps, settings.speed_scale)
+            none = np.zeros(0, int)
+            out.append(_Stage(name, none, none, offsets, np.zeros(0), np.all(offsets == 0, axis=1)))
+            continue
+        grid, noise = groups[name]
         offsets = group_grid(grid, settings, fps)
-        out.append(_Stage(np.array([DOF_INDEX[d] for d in grid], int),
+        out.append(_Stage(name, np.array([DOF_INDEX[d] for d in grid], int),
                           np.array([DOF_INDEX[d] for d in noise], int), offsets,
                           std[[DOF_INDEX[d] for d in noise]], np.all(offsets == 0, axis=1)))
     return out
@@ -210,9 +235,13 @@ def _children(keys: jax.Array, i: int, kept: np.ndarray, stage: _Stage, scale: f
     return new
 
 
-def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
-    """The factored IPF kernel for fixed settings."""
+def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body | None = None) -> Filter:
+    """The factored IPF kernel for fixed settings; ``body`` (the subject's shape values and up
+    rotation) is what the posture group needs (:mod:`.posture`)."""
     validate(settings)
+    require(body is not None or not settings.posture,
+            "the factored filter's posture group needs the body (the tracker gives it): "
+            "build it with one, or with posture off")
     stages = _stages(settings, fps)
     m = settings.top_m
     all_std = rate_std(default_noise_rates(), fps) * settings.noise_scale
@@ -242,7 +271,8 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
             scale = settings.shrink ** r
             for g, stage in enumerate(stages):
                 i = r * len(stages) + g
-                cand = _children(keys, i, kept, stage, scale, z.get(i))
+                cand = (posture.children(kept, stage.offsets * scale, body, limits.clip)
+                        if stage.name == posture.NAME else _children(keys, i, kept, stage, scale, z.get(i)))
                 if r == 0 and g == 0 and settings.filler:
                     extra = kept[np.arange(settings.filler) % m]
                     extra = extra + np.asarray(z[n_keys - 1], np.float64) * all_std
@@ -271,6 +301,7 @@ def build(settings: FIPFSettings, limits: Limits, fps: float) -> Filter:
               "shrink": settings.shrink, "speed_scale": settings.speed_scale,
               "noise_scale": settings.noise_scale, "filler": settings.filler,
               "groups": {name: list(grid) for name, grid, _ in settings.groups},
+              "posture": settings.posture, "stages": list(settings.stages()),
               "grid_sizes": list(settings.grid_sizes()),
               "cost_per_particle": settings.cost_per_particle(), "polish": settings.polish,
               "polish_keep": settings.polish_keep, "polish_step": settings.polish_step,

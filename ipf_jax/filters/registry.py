@@ -6,10 +6,11 @@ user did not give so that it spends as much of the budget as it can without exce
 ========  =====================================================================================
 ipf       M = budget // I (I = P^|L| grid points; ``particles`` stands for M x I the same way)
 fipf      the polish first (6 compass sweeps of one particle: 378), then M = the rest //
-          (rounds x sum of the group grids); the remainder is ``filler`` (noisy copies), so the
-          budget is spent exactly (``particles`` stands for the budget); with neither, the
-          paper's 6561. Below 1152 (the polish and one particle's 3-point grids), unless given:
-          no polish; below 774, 2 points (168), then 2 points and 1 round (84)
+          (rounds x sum of the group grids, the posture group's 27 with a body); the remainder
+          is ``filler`` (noisy copies), so the budget is spent exactly (``particles`` stands for
+          the budget); with neither, the paper's 6561. Below 1206 (the polish and one particle's
+          3-point grids), unless given: no polish; below 828, 2 points (184), then 2 points and
+          1 round (92); without a body 1152, 774, 168 and 84
 apf       particles = budget // layers; or, with ``particles`` given, layers = budget // particles
 sir       particles = budget
 ========  =====================================================================================
@@ -27,7 +28,7 @@ from typing import NamedTuple
 
 from ..body.limits import Limits
 from ..errors import IPFError, require
-from . import apf, fipf, ipf, sir
+from . import apf, fipf, ipf, posture, sir
 from .base import Filter
 
 NAMES = ("ipf", "fipf", "apf", "sir")
@@ -87,10 +88,18 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> 
     return settings
 
 
-def make(name: str, options: dict, limits: Limits, fps: float, budget: int | None = None) -> Filter:
-    """Build filter ``name``. Explicit options win over the ``budget`` (evaluations per frame)."""
+def make(name: str, options: dict, limits: Limits, fps: float, budget: int | None = None,
+         body: posture.Body | None = None) -> Filter:
+    """Build filter ``name``. Explicit options win over the ``budget`` (evaluations per frame).
+    ``body`` (the subject's shape values and up rotation) lets the factored filter search its
+    posture group (:mod:`.posture`); without one that group is off (asking for it is an error)."""
+    if name == "fipf" and body is None:
+        require(not options.get("posture"), "the factored filter's posture group needs the body "
+                "(the tracker gives it)")
+        options = {**options, "posture": False}
     settings = resolve(name, options, fps, budget)
-    return _MODULES[name].build(settings, limits, fps)
+    return (fipf.build(settings, limits, fps, body) if name == "fipf"
+            else _MODULES[name].build(settings, limits, fps))
 
 
 def _sir_settings(options: dict, budget: int | None) -> sir.SIRSettings:

@@ -71,32 +71,103 @@ def limb_points(q: np.ndarray, values: np.ndarray, U: np.ndarray, which=None) ->
     return out.reshape(lead + out.shape[-2:])
 
 
+#: Positions in :data:`KEPT_POINTS` of the feet's joints (both ankles, heels and toes): what
+#: :mod:`ipf_jax.filters.posture` holds in place while it moves the pelvis.
+FEET = np.array([t for t, i in enumerate(KEPT_POINTS)
+                 if POINTS[i].name.endswith(("_ankle", "_heel", "_toe"))])
+
+
+def _chains_for(which: np.ndarray) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
+    """The limb DOFs (positions in :data:`LIMB_DOFS`) that move any of the kept joints ``which``
+    (positions in :data:`KEPT_POINTS`), and per chain its DOFs' columns among them and the
+    positions in ``which`` of the joints it moves."""
+    local = {int(p): j for j, p in enumerate(which)}
+    chains = [(dofs, np.array([local[int(p)] for p in pts if int(p) in local]))
+              for dofs, pts in _CHAINS]
+    chains = [(dofs, pts) for dofs, pts in chains if len(pts)]
+    moved = np.sort(np.concatenate([dofs for dofs, _ in chains]))
+    return moved, [(np.searchsorted(moved, dofs), pts) for dofs, pts in chains]
+
+
+def _jacobian(q: np.ndarray, values: np.ndarray, U: np.ndarray, chains, columns: np.ndarray,
+              kept: np.ndarray | None, p0: np.ndarray, step: float) -> np.ndarray:
+    """(N, k, 3T) forward-difference Jacobian (transposed) of the kept joints ``p0`` (N, T, 3)
+    over the limb angles ``columns``: a DOF moves only its limb's joints, so the other entries are
+    exactly zero (as the differences of unchanged joints were) and each limb's joints are placed
+    alone."""
+    n, k, t = q.shape[0], len(columns), p0.shape[1]
+    J = np.zeros((n, k, t, 3))
+    for dofs, pts in chains:
+        m = len(dofs)
+        qq = np.repeat(q[:, None], m, 1)
+        qq[:, np.arange(m), columns[dofs]] += step
+        pp = limb_points(qq, values[:, None], U, which=pts if kept is None else kept[pts])
+        J[:, dofs[:, None], pts[None, :]] = (pp - p0[:, None, pts]) / step
+    return J.reshape(n, k, -1)
+
+
+def _problem(which: np.ndarray | None):
+    """(columns of q moved, their chains, kept positions or None) for :func:`retarget`."""
+    if which is None:
+        return LIMB_DOFS, _CHAINS, None
+    which = np.asarray(which)
+    dof_pos, chains = _chains_for(which)
+    return LIMB_DOFS[dof_pos], chains, which
+
+
 def retarget(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, clip, *,
-             iterations: int = 3, step: float = 1e-3, damping: float = 1e-4) -> np.ndarray:
+             iterations: int = 3, step: float = 1e-3, damping: float = 1e-4,
+             which: np.ndarray | None = None) -> np.ndarray:
     """Limb angles of (N, D) poses ``q`` with (N, P) bodies ``values`` moved so that the kept
     joints come nearest ``targets`` (N, T, 3) (least squares, Gauss-Newton with a forward-difference
     Jacobian of ``step`` rad and Levenberg's ``damping``); ``clip`` keeps each pose inside the
-    DOF ranges after every step. Returns (N, D)."""
+    DOF ranges after every step. ``which`` (positions in :data:`KEPT_POINTS`, e.g. :data:`FEET`)
+    keeps only those joints (``targets`` (N, len(which), 3)) and moves only the limb angles above
+    them. Returns (N, D)."""
     q = np.array(q, np.float64)
     values = np.asarray(values, np.float64)
-    n, k, t = q.shape[0], len(LIMB_DOFS), len(KEPT_POINTS)
+    columns, chains, kept = _problem(which)
+    n, k = q.shape[0], len(columns)
     for _ in range(iterations):
-        p0 = limb_points(q, values, U)  # (N, T, 3)
+        p0 = limb_points(q, values, U, which=kept)  # (N, T, 3)
         residual = (p0 - targets).reshape(n, -1, 1)
-        # a DOF moves only its limb's joints: the Jacobian's other entries are exactly zero (as
-        # the differences of unchanged joints were), so each limb's joints are placed alone
-        J = np.zeros((n, k, t, 3))  # J transposed: (N, k, 3T) once reshaped
-        for dofs, pts in _CHAINS:
-            m = len(dofs)
-            qq = np.repeat(q[:, None], m, 1)
-            qq[:, np.arange(m), LIMB_DOFS[dofs]] += step
-            pp = limb_points(qq, values[:, None], U, which=pts)  # (N, m, |pts|, 3)
-            J[:, dofs[:, None], pts[None, :]] = (pp - p0[:, None, pts]) / step
-        J = J.reshape(n, k, -1)
+        J = _jacobian(q, values, U, chains, columns, kept, p0, step)
         delta = np.linalg.solve(J @ J.transpose(0, 2, 1) + damping * np.eye(k), -(J @ residual))
-        q[:, LIMB_DOFS] += delta[..., 0]
+        q[:, columns] += delta[..., 0]
         q = clip(q)
     return q
 
 
-__all__ = ["KEPT_POINTS", "LIMB_DOFS", "limb_points", "retarget"]
+def hold(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, clip, *,
+         which: np.ndarray, iterations: int = 4, step: float = 1e-3,
+         damping: float = 1e-3) -> np.ndarray:
+    """:func:`retarget` for targets that may be out of reach (a straight leg under a lifted
+    pelvis): Levenberg-Marquardt, each pose's step kept only where it brings the joints nearer
+    (then its damping falls 10x), else the pose stays and its damping grows 10x; the damping
+    scales the normal matrix's diagonal (Marquardt). Gauss-Newton there overshoots and can swing
+    a leg far away; this never ends further from the targets than it started. Returns (N, D)."""
+    q = np.array(q, np.float64)
+    values = np.asarray(values, np.float64)
+    columns, chains, kept = _problem(which)
+    n = q.shape[0]
+    p0 = limb_points(q, values, U, which=kept)
+    cost = ((p0 - targets) ** 2).sum((1, 2))
+    lam = np.full(n, float(damping))
+    for _ in range(iterations):
+        J = _jacobian(q, values, U, chains, columns, kept, p0, step)
+        A = J @ J.transpose(0, 2, 1)
+        diag = np.einsum("nii->ni", A)
+        A[:, np.arange(len(columns)), np.arange(len(columns))] += lam[:, None] * np.maximum(diag, 1e-12)
+        delta = np.linalg.solve(A, -(J @ (p0 - targets).reshape(n, -1, 1)))[..., 0]
+        trial = q.copy()
+        trial[:, columns] += delta
+        trial = clip(trial)
+        p1 = limb_points(trial, values, U, which=kept)
+        c1 = ((p1 - targets) ** 2).sum((1, 2))
+        better = c1 < cost
+        q[better], p0[better], cost[better] = trial[better], p1[better], c1[better]
+        lam = np.where(better, lam * 0.1, lam * 10.0)
+    return q
+
+
+__all__ = ["FEET", "KEPT_POINTS", "LIMB_DOFS", "hold", "limb_points", "retarget"]

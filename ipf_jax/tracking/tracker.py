@@ -57,6 +57,7 @@ from ..data.silhouette import resize_mask
 from ..errors import IPFError, IPFWarning, require
 from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
+from ..filters.posture import Body
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
 from ..geometry.placement import HEIGHT_MIN_FRAMES, height_from_view
@@ -238,7 +239,7 @@ class Tracker:
                     settings.shape_file)
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
-        self._filters: dict[int, Filter] = {}
+        self._filters: dict[int, tuple[BodyShape | None, Filter]] = {}
         self._ahead: tuple[int, jax.Array, object] | None = None  # see draw_ahead
         # padding against calls and programs: docs/benchmarks.md
         chunk, block = pick_chunking(self.filter.calls, chunk=settings.chunk)
@@ -277,14 +278,18 @@ class Tracker:
         return self.filter_for(None)
 
     def filter_for(self, shape: BodyShape | None) -> Filter:
-        """The filter; once the subject's shape is known its limits include floor contact."""
-        k = 0 if shape is None or self.settings.floor_range is None else id(shape)
-        if k not in self._filters:
+        """The filter for the subject's ``shape`` (None: before it is known, the template's body
+        stands in): its posture group holds that body's feet (:mod:`ipf_jax.filters.posture`),
+        its limits include floor contact when asked for."""
+        k = 0 if shape is None else id(shape)
+        if k not in self._filters or self._filters[k][0] is not shape:  # an id can be reused
             s = self.settings
-            limits = self.limits if k == 0 else FloorContact(self.limits, shape, self.U, *s.floor_range)
-            f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget)
-            self._filters = {0: self._filters.get(0, f), k: f}
-        f = self._filters[k]
+            contact = shape is not None and s.floor_range is not None
+            limits = FloorContact(self.limits, shape, self.U, *s.floor_range) if contact else self.limits
+            body = Body(np.asarray((shape or self.base_shape).values, np.float64), np.asarray(self.U, np.float64))
+            f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget, body=body)
+            self._filters = {0: self._filters.get(0, (None, f)), k: (shape, f)}
+        f = self._filters[k][1]
         return f if self.filter_hook is None else self.filter_hook(f)
 
     # -- the stages of a frame ---------------------------------------------------------------
