@@ -14,6 +14,8 @@ functions that do it, per tracked frame:
 * ``observe``: masks read, resized, packed; blobs, rays and mask quality (``Tracker.observe``);
 * ``place``: the body origin's shift from the silhouettes (``Tracker.place``);
 * ``selection``: the M best distinct particles / resampling (``filters.selection``);
+* ``posture``: the factored filter's posture children (the pelvis moved, the legs' angles
+  solved so the feet stay: ``filters/posture.py``);
 * ``prediction``: the rest of the filter's host step (interval grid, noise, clipping);
 * ``geometry``: FK, projection and extents on the device, and the extents' transfer (``Scorer.geometry``);
 * ``window plan``: ``Scorer.plan``;
@@ -64,6 +66,7 @@ FUNCTIONS = {
     "selection": [("filters/selection.py", "top_distinct", ("step",)),
                   ("filters/selection.py", "systematic", ("resample_diffuse", "step")),
                   ("filters/selection.py", "systematic_at", ("resample_diffuse",))],
+    "posture": [("filters/posture.py", "children", None)],
     "filter step": [("filters/ipf.py", "step", None), ("filters/apf.py", "step", None),
                     ("filters/sir.py", "step", None), ("filters/fipf.py", "step", None)],
     "measure": [("/tracker.py", "fn", None)],
@@ -103,7 +106,8 @@ def stages(stats: pstats.Stats, frames: int) -> dict:
     c = {k: cumulative(stats, v) for k, v in FUNCTIONS.items()}
     out = {
         "observe": c["observe"], "place": c["place"], "selection": c["selection"],
-        "prediction": c["filter step"] - c["measure"] - c["selection"],
+        "posture": c["posture"],
+        "prediction": c["filter step"] - c["measure"] - c["selection"] - c["posture"],
         "geometry": c["geometry"], "window plan": c["window plan"],
         "raster + counts": c["counts"] - c["geometry"] - c["window plan"],
         "weights": c["weights"], "priors": c["priors"],

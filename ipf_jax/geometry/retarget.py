@@ -89,30 +89,50 @@ def _chains_for(which: np.ndarray) -> tuple[np.ndarray, list[tuple[np.ndarray, n
     return moved, [(np.searchsorted(moved, dofs), pts) for dofs, pts in chains]
 
 
-def _jacobian(q: np.ndarray, values: np.ndarray, U: np.ndarray, chains, columns: np.ndarray,
+def _copies(chains) -> list[list[tuple[int, np.ndarray]]]:
+    """The forward differences of a Jacobian grouped into perturbed copies of a pose: chains whose
+    joints overlap are one limb (a hip's, its knee's and its ankle's), and no limb's angles move
+    another limb's joints, so each copy moves one DOF of every limb at once. Copy c is a list of
+    (DOF column, the joints it moves) pairs; a leg's six DOFs make six copies for all four limbs."""
+    limbs: list[list[tuple[np.ndarray, np.ndarray]]] = []
+    for dofs, pts in chains:
+        limb = next((lb for lb in limbs if any(np.intersect1d(pts, p).size for _, p in lb)), None)
+        if limb is None:
+            limbs.append(limb := [])
+        limb.append((dofs, pts))
+    moves = [[(int(d), pts) for dofs, pts in limb for d in dofs] for limb in limbs]
+    return [[m[c] for m in moves if c < len(m)] for c in range(max(map(len, moves)))]
+
+
+_COPIES = _copies(_CHAINS)
+
+
+def _jacobian(q: np.ndarray, values: np.ndarray, U: np.ndarray, copies, columns: np.ndarray,
               kept: np.ndarray | None, p0: np.ndarray, step: float) -> np.ndarray:
     """(N, k, 3T) forward-difference Jacobian (transposed) of the kept joints ``p0`` (N, T, 3)
-    over the limb angles ``columns``: a DOF moves only its limb's joints, so the other entries are
-    exactly zero (as the differences of unchanged joints were) and each limb's joints are placed
-    alone."""
+    over the limb angles ``columns``. A DOF moves only its limb's joints: the other entries are
+    exactly zero (as the differences of unchanged joints were), and one perturbed copy of a pose
+    serves a DOF of every limb (:func:`_copies`): one placement of all the joints for the whole
+    Jacobian, each joint's difference the one its own DOF alone would give, number for number."""
     n, k, t = q.shape[0], len(columns), p0.shape[1]
-    J = np.zeros((n, k, t, 3))
-    for dofs, pts in chains:
-        m = len(dofs)
-        qq = np.repeat(q[:, None], m, 1)
-        qq[:, np.arange(m), columns[dofs]] += step
-        pp = limb_points(qq, values[:, None], U, which=pts if kept is None else kept[pts])
-        J[:, dofs[:, None], pts[None, :]] = (pp - p0[:, None, pts]) / step
+    qq = np.repeat(q[:, None], len(copies), 1)
+    for c, moves in enumerate(copies):
+        qq[:, c, columns[[d for d, _ in moves]]] += step
+    pp = limb_points(qq, values[:, None], U, which=kept)  # (N, C, T, 3)
+    J = np.zeros((n, k, t, 3))  # J transposed: (N, k, 3T) once reshaped
+    for c, moves in enumerate(copies):
+        for d, pts in moves:
+            J[:, d, pts] = (pp[:, c, pts] - p0[:, pts]) / step
     return J.reshape(n, k, -1)
 
 
 def _problem(which: np.ndarray | None):
-    """(columns of q moved, their chains, kept positions or None) for :func:`retarget`."""
+    """(columns of q moved, their Jacobian's copies, kept positions or None) for :func:`retarget`."""
     if which is None:
-        return LIMB_DOFS, _CHAINS, None
+        return LIMB_DOFS, _COPIES, None
     which = np.asarray(which)
     dof_pos, chains = _chains_for(which)
-    return LIMB_DOFS[dof_pos], chains, which
+    return LIMB_DOFS[dof_pos], _copies(chains), which
 
 
 def retarget(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, clip, *,
@@ -126,12 +146,12 @@ def retarget(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarr
     them. Returns (N, D)."""
     q = np.array(q, np.float64)
     values = np.asarray(values, np.float64)
-    columns, chains, kept = _problem(which)
+    columns, copies, kept = _problem(which)
     n, k = q.shape[0], len(columns)
     for _ in range(iterations):
         p0 = limb_points(q, values, U, which=kept)  # (N, T, 3)
         residual = (p0 - targets).reshape(n, -1, 1)
-        J = _jacobian(q, values, U, chains, columns, kept, p0, step)
+        J = _jacobian(q, values, U, copies, columns, kept, p0, step)
         delta = np.linalg.solve(J @ J.transpose(0, 2, 1) + damping * np.eye(k), -(J @ residual))
         q[:, columns] += delta[..., 0]
         q = clip(q)
@@ -148,13 +168,18 @@ def hold(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, 
     a leg far away; this never ends further from the targets than it started. Returns (N, D)."""
     q = np.array(q, np.float64)
     values = np.asarray(values, np.float64)
-    columns, chains, kept = _problem(which)
+    columns, copies, kept = _problem(which)
     n = q.shape[0]
     p0 = limb_points(q, values, U, which=kept)
     cost = ((p0 - targets) ** 2).sum((1, 2))
     lam = np.full(n, float(damping))
+    values = np.broadcast_to(values, (n, values.shape[-1]))
+    J, stale = None, np.ones(n, bool)
     for _ in range(iterations):
-        J = _jacobian(q, values, U, chains, columns, kept, p0, step)
+        if J is None:
+            J = _jacobian(q, values, U, copies, columns, kept, p0, step)
+        elif stale.any():  # a pose whose step was refused has not moved: its Jacobian stands
+            J[stale] = _jacobian(q[stale], values[stale], U, copies, columns, kept, p0[stale], step)
         A = J @ J.transpose(0, 2, 1)
         diag = np.einsum("nii->ni", A)
         A[:, np.arange(len(columns)), np.arange(len(columns))] += lam[:, None] * np.maximum(diag, 1e-12)
@@ -167,6 +192,7 @@ def hold(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, 
         better = c1 < cost
         q[better], p0[better], cost[better] = trial[better], p1[better], c1[better]
         lam = np.where(better, lam * 0.1, lam * 10.0)
+        stale = better
     return q
 
 
