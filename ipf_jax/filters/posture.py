@@ -35,6 +35,12 @@ SPEEDS = (0.4, 0.4, 100.0)
 #: moves: tests/test_posture.py).
 ITERATIONS = 4
 NAME = "posture"
+#: The tracker searches the posture group by default only with this many cameras or more
+#: (``--posture`` turns it on with fewer). With one or two cameras it changed nothing beyond the
+#: seeds' spread over 20 runs of the one- and two-camera renders (docs/fipf.md) and cost about a
+#: third of a one-camera frame, whose measure step is short; the feet it holds are where a single
+#: view cannot place them well either.
+MIN_VIEWS = 3
 _PITCH = DOF_INDEX["root_pitch"]
 
 
@@ -87,4 +93,4 @@ def children(kept: np.ndarray, offsets: np.ndarray, body: Body, clip) -> np.ndar
     return new
 
 
-__all__ = ["Body", "ITERATIONS", "NAME", "SPEEDS", "children", "grid", "heading"]
+__all__ = ["Body", "ITERATIONS", "MIN_VIEWS", "NAME", "SPEEDS", "children", "grid", "heading"]

@@ -125,8 +125,8 @@ OPTIONS: tuple[Option, ...] = (
            "the rounds, inside the budget (0: none; docs/fipf.md)" + _filter_default("fipf", "polish"),
            "filter", check=_at_least(0)),
     Option("posture", "--posture", "bool", None, "FIPF: the posture group, the pelvis moved "
-           "forward, up and pitched with both feet held (rising from a chair; default on; "
-           "--no-posture: the groups alone, docs/fipf.md)", "filter"),
+           "forward, up and pitched with both feet held (rising from a chair; default on with 3 "
+           "cameras or more; --no-posture: the groups alone, docs/fipf.md)", "filter"),
     Option("speed_scale", "--speed-scale", "float", None, "FIPF: multiply every DOF's maximum "
            "speed (the interval half-width is speed / fps; default 1)", "filter", check=_positive),
     Option("interval_width_deg", "--interval-width", "float", None, "IPF: full interval width, "
