@@ -5,16 +5,17 @@ Rising from a chair moves the pelvis forward and up, tips it back and straighten
 knees together, with the feet planted; every move of one group alone (the root, the pelvis
 pitch, one leg) from a crouch towards standing lifts or slides a foot and scores worse than
 the crouch. So the track could stay crouched behind a person who had stood up: on
-``sub4_sts_clean_4cam`` for 12 frames, hips 15-19 cm behind, on tiptoe, weight 3.4-3.9 where
+``sub4_sts_clean_4cam`` for 12 frames, hips 13-19 cm behind, on tiptoe, weight 3.4-3.9 where
 the true pose scores 4.4-8.1 (docs/fipf.md, "The posture group").
 
 This group searches those DOFs together: a grid over the pelvis's forward and upward translation
 (along the body's heading in the floor plane, and along up) and its pitch, and for each grid
 point the legs' angles (hips, knees, ankles) that bring both ankles, heels and toes back to where
-the parent particle had them (:func:`ipf_jax.geometry.retarget.retarget` on
-:data:`~ipf_jax.geometry.retarget.FEET`, :data:`ITERATIONS` Gauss-Newton steps). It needs the
-body (its shape values and up rotation), so the filter has it only when it is built with one
-(the tracker's always is).
+the parent particle had them (:func:`ipf_jax.geometry.retarget.hold` on
+:data:`~ipf_jax.geometry.retarget.FEET`: :data:`ITERATIONS` Levenberg-Marquardt steps, never
+ending further from the feet than the move alone left them). It needs the body (its shape values
+and up rotation), so the filter has it only when it is built with one (the tracker's always is;
+by default the tracker turns the group on with :data:`MIN_VIEWS` cameras or more).
 """
 from __future__ import annotations
 
@@ -31,15 +32,16 @@ from ..geometry.retarget import FEET, hold, limb_points
 #: and up (m/s) and its pitch (deg/s), as :data:`ipf_jax.filters.fipf.MAX_SPEEDS` has them for the
 #: root's translation and the pelvis pitch (rising from a chair: Schenkman et al. 1990).
 SPEEDS = (0.4, 0.4, 100.0)
-#: Gauss-Newton steps that bring the feet back (the residual after 4 is below 1 mm for the grid's
-#: moves: tests/test_posture.py).
+#: Levenberg-Marquardt steps that bring the feet back (after 4, within 0.1 mm for most of a
+#: crouch's grid moves and within a few millimetres for all that stay in reach:
+#: tests/test_posture.py).
 ITERATIONS = 4
 NAME = "posture"
 #: The tracker searches the posture group by default only with this many cameras or more
 #: (``--posture`` turns it on with fewer). With one or two cameras it changed nothing beyond the
-#: seeds' spread over 20 runs of the one- and two-camera renders (docs/fipf.md) and cost about a
-#: third of a one-camera frame, whose measure step is short; the feet it holds are where a single
-#: view cannot place them well either.
+#: seeds' spread over the 20 walk runs of the one- and two-camera renders at seeds 0 and 1
+#: (docs/fipf.md) and would cost about a third of a one-camera frame, whose measure step is short;
+#: the feet it holds are where a single view cannot place them well either.
 MIN_VIEWS = 3
 _PITCH = DOF_INDEX["root_pitch"]
 
