@@ -174,12 +174,8 @@ def hold(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, 
     cost = ((p0 - targets) ** 2).sum((1, 2))
     lam = np.full(n, float(damping))
     values = np.broadcast_to(values, (n, values.shape[-1]))
-    J, stale = None, np.ones(n, bool)
-    for _ in range(iterations):
-        if J is None:
-            J = _jacobian(q, values, U, copies, columns, kept, p0, step)
-        elif stale.any():  # a pose whose step was refused has not moved: its Jacobian stands
-            J[stale] = _jacobian(q[stale], values[stale], U, copies, columns, kept, p0[stale], step)
+    J = _jacobian(q, values, U, copies, columns, kept, p0, step)
+    for it in range(iterations):
         A = J @ J.transpose(0, 2, 1)
         diag = np.einsum("nii->ni", A)
         A[:, np.arange(len(columns)), np.arange(len(columns))] += lam[:, None] * np.maximum(diag, 1e-12)
@@ -192,7 +188,8 @@ def hold(q: np.ndarray, values: np.ndarray, targets: np.ndarray, U: np.ndarray, 
         better = c1 < cost
         q[better], p0[better], cost[better] = trial[better], p1[better], c1[better]
         lam = np.where(better, lam * 0.1, lam * 10.0)
-        stale = better
+        if it + 1 < iterations and better.any():  # a refused step's pose and Jacobian stand
+            J[better] = _jacobian(q[better], values[better], U, copies, columns, kept, p0[better], step)
     return q
 
 
