@@ -46,7 +46,7 @@ from .base import (
     rate_std,
     summarise,
 )
-from . import posture
+from . import posture, reach
 from .compass import SEARCH_STD, compass_search, sweep_cost
 from .selection import top_distinct
 
@@ -114,6 +114,7 @@ class FIPFSettings(NamedTuple):
     polish_keep: int = 1  # distinct particles each polish sweep starts from
     polish_step: float = 0.25  # the first sweep's steps, as a fraction of compass.SEARCH_STD
     posture: bool = True  # the posture group after the trunk's (.posture; needs the body)
+    reach: bool = False  # each arm searched over its whole range after the rounds (.reach)
 
     def stages(self) -> tuple[str, ...]:
         """The names of the searches of a round, in order: the groups, and the posture group
@@ -137,15 +138,25 @@ class FIPFSettings(NamedTuple):
         """Evaluations of the polish: ``polish`` compass sweeps of ``polish_keep`` particles."""
         return self.polish * sweep_cost(self.polish_keep)
 
+    def reach_cost(self) -> int:
+        """Evaluations of the arms' reach search (:func:`.reach.cost`; 0 when off)."""
+        return reach.cost() if self.reach else 0
+
+    def fixed_cost(self) -> int:
+        """Evaluations a frame spends whatever M: the polish and the reach search."""
+        return self.polish_cost() + self.reach_cost()
+
     def evaluations(self) -> int:
-        return self.top_m * self.cost_per_particle() + self.filler + self.polish_cost()
+        return self.top_m * self.cost_per_particle() + self.filler + self.fixed_cost()
 
     def calls(self) -> tuple[int, ...]:
         """Particles of each measure call of a frame: one per group and round (the filler with
-        the first), then two per polish sweep (the moves, the combined moves)."""
+        the first), the reach search's (:func:`.reach.calls`), then two per polish sweep (the
+        moves, the combined moves)."""
         sizes = [self.top_m * g for _ in range(self.rounds) for g in self.grid_sizes()]
         sizes[0] += self.filler
-        return tuple(sizes) + (2 * NUM_DOF * self.polish_keep, self.polish_keep) * self.polish
+        return (tuple(sizes) + (reach.calls() if self.reach else ())
+                + (2 * NUM_DOF * self.polish_keep, self.polish_keep) * self.polish)
 
 
 def validate(settings: FIPFSettings) -> None:
@@ -284,6 +295,11 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
                 top = top_distinct(cand, w, m)
                 kept = cand[top]
         last_p, last_w = seen_p[-1], seen_w[-1]
+        if settings.reach:  # each arm over its whole range, from the best so far
+            pool_p, pool_w = reach.search(last_p[np.argmax(last_w)], measure, limits.clip)
+            seen_p.append(pool_p)
+            seen_w.append(pool_w)
+            last_p, last_w = np.concatenate([last_p, pool_p]), np.concatenate([last_w, pool_w])
         if settings.polish:  # the last degrees and millimetres: compass sweeps from the best
             pool_p, pool_w, _ = compass_search(last_p, last_w, lambda q: np.asarray(measure(q), float),
                                                limits.clip, polish_step, keep=settings.polish_keep,
@@ -301,7 +317,8 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
               "shrink": settings.shrink, "speed_scale": settings.speed_scale,
               "noise_scale": settings.noise_scale, "filler": settings.filler,
               "groups": {name: list(grid) for name, grid, _ in settings.groups},
-              "posture": settings.posture, "stages": list(settings.stages()),
+              "posture": settings.posture, "reach": settings.reach,
+              "reach_cost": settings.reach_cost(), "stages": list(settings.stages()),
               "grid_sizes": list(settings.grid_sizes()),
               "cost_per_particle": settings.cost_per_particle(), "polish": settings.polish,
               "polish_keep": settings.polish_keep, "polish_step": settings.polish_step,

@@ -154,13 +154,14 @@ def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
     if total is not None:
         for fallback in ({"polish": 0}, {"polish": 0, "points_per_dof": 2},
                          {"polish": 0, "points_per_dof": 2, "rounds": 1}):
-            if total - settings.polish_cost() >= settings.cost_per_particle() or set(fallback) & set(options):
+            if total - settings.fixed_cost() >= settings.cost_per_particle() or set(fallback) & set(options):
                 break  # small budgets: no polish, then coarser grids, unless the user chose them
             settings = settings._replace(**fallback)
-        cost, rest = settings.cost_per_particle(), total - settings.polish_cost()
+        cost, rest = settings.cost_per_particle(), total - settings.fixed_cost()
         require(rest >= cost, f"{total} evaluations cannot search the groups once per kept particle "
                 f"(the factored filter needs {cost} per kept particle: {settings.rounds} round(s) "
                 f"over grids of {'+'.join(map(str, settings.grid_sizes()))}"
-                + (f"; its polish takes {settings.polish_cost()}" if settings.polish else "") + ")")
+                + (f"; its polish takes {settings.polish_cost()}" if settings.polish else "")
+                + (f"; its reach search {settings.reach_cost()}" if settings.reach else "") + ")")
         settings = settings._replace(top_m=rest // cost, filler=rest % cost)
     return settings

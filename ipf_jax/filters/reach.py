@@ -1,0 +1,102 @@
+"""The arms' reach search: each arm searched over its whole range from the frame's best pose.
+
+The factored filter's arm groups search a few degrees around the kept particles, so an arm that
+the track got wrong (an arm hanging straight where the person holds the forearm forward, left
+by a noisy first frame) stays wrong: every small move from the hanging arm towards the bent one
+takes pixels off the body and scores worse, and the right arm sits in a narrow basin of its own
+(docs/fipf.md, "The arms' reach search"). This stage looks for that basin directly, for each arm
+in turn with the rest of the body held at the frame's best pose:
+
+1. a coarse grid over the arm's four DOFs (:data:`GRID_DEG`: shoulder flexion x abduction x
+   rotation x elbow flexion, 72 points, each clipped to the limits);
+2. the :data:`KEEP` best distinct grid points of each arm refined by :data:`SWEEPS` compass
+   sweeps on those four DOFs (``+- step`` on each, the best move kept when it improves; the
+   step :data:`STEP_DEG` halving per sweep), both arms in one measure call per sweep.
+
+Everything it weighs joins the frame's pool, so a better arm becomes the frame's estimate and a
+kept particle of the next frame, and a worse one changes nothing.
+"""
+from __future__ import annotations
+
+import itertools
+from typing import Callable
+
+import numpy as np
+
+from ..body.model import DOF_INDEX
+from .selection import top_distinct
+
+#: The DOFs of each arm, in the grid's order.
+ARMS: tuple[tuple[int, ...], ...] = tuple(
+    tuple(DOF_INDEX[f"{side}_{d}"] for d in ("shoulder_flexion", "shoulder_abduction",
+                                              "shoulder_rotation", "elbow_flexion"))
+    for side in ("left", "right"))
+#: The coarse grid, degrees per DOF of :data:`ARMS` (every arm pose of everyday movement lies
+#: within about 25 deg of one of its points, in each DOF).
+GRID_DEG: tuple[tuple[float, ...], ...] = ((-30.0, 15.0, 60.0, 105.0), (0.0, 40.0),
+                                           (-45.0, 0.0, 45.0), (0.0, 50.0, 100.0))
+#: Distinct grid points of each arm refined by the compass sweeps.
+KEEP = 3
+#: Compass sweeps, and the first sweep's step (halved after each).
+SWEEPS = 5
+STEP_DEG = 20.0
+
+
+def grid() -> np.ndarray:
+    """(G, 4) the coarse grid's arm DOF values (radians)."""
+    return np.deg2rad(np.array(list(itertools.product(*GRID_DEG))))
+
+
+def cost() -> int:
+    """Evaluations per frame: both arms' grids, then per sweep ``KEEP x 8`` moves per arm."""
+    return len(ARMS) * (len(grid()) + SWEEPS * KEEP * 8)
+
+
+def calls() -> tuple[int, ...]:
+    """Particles of each measure call: the grids, then one call per sweep."""
+    return (len(ARMS) * len(grid()),) + (len(ARMS) * KEEP * 8,) * SWEEPS
+
+
+def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
+           clip: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Every arm's reach search from the (D,) ``best`` pose: (N, D) particles weighed, (N,)
+    their weights (N = :func:`cost`). ``measure`` (K, D) -> (K,); ``clip`` into the limits."""
+    best = np.asarray(best, np.float64)
+    g = grid()
+    cand = []
+    for arm in ARMS:
+        c = np.repeat(best[None], len(g), axis=0)
+        c[:, arm] = g
+        cand.append(c)
+    cand = clip(np.concatenate(cand))
+    w = np.asarray(measure(cand), float)
+    seen_p, seen_w = [cand], [w]
+    kept, kept_w = [], []
+    for a in range(len(ARMS)):
+        part = slice(a * len(g), (a + 1) * len(g))
+        idx = top_distinct(cand[part], w[part], KEEP)
+        kept.append(cand[part][idx])
+        kept_w.append(w[part][idx])
+    kept, kept_w = np.concatenate(kept), np.concatenate(kept_w)  # (A K, D): arm a's are rows a K..
+    arm_of = np.repeat(np.arange(len(ARMS)), KEEP)
+    step = np.deg2rad(STEP_DEG)
+    for _ in range(SWEEPS):
+        moves = np.repeat(kept, 8, axis=0)
+        for j in range(len(kept)):
+            for k, dof in enumerate(ARMS[arm_of[j]]):
+                moves[8 * j + 2 * k, dof] += step
+                moves[8 * j + 2 * k + 1, dof] -= step
+        moves = clip(moves)
+        mw = np.asarray(measure(moves), float)
+        seen_p.append(moves)
+        seen_w.append(mw)
+        per = mw.reshape(len(kept), 8)
+        pick = per.argmax(axis=1)
+        better = per[np.arange(len(kept)), pick] > kept_w
+        kept[better] = moves.reshape(len(kept), 8, -1)[better, pick[better]]
+        kept_w[better] = per[better, pick[better]]
+        step *= 0.5
+    return np.concatenate(seen_p), np.concatenate(seen_w)
+
+
+__all__ = ["ARMS", "GRID_DEG", "KEEP", "STEP_DEG", "SWEEPS", "calls", "cost", "grid", "search"]
