@@ -263,7 +263,7 @@ def main(argv=None) -> int:
     if not seeds or "--seed" in args.track_args:
         sys.exit("error: give the seeds with --seeds (not --seed after --)")
     root = shared_data_dir() / "mocap_walk_render"
-    out = Path(args.out)
+    out = Path(args.out).resolve()  # the runs start in / (cwd="/"): a relative --out must not follow them
     out.mkdir(parents=True, exist_ok=True)
     source = source_hash(args.python_path)
     rows = []
