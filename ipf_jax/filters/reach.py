@@ -10,8 +10,9 @@ in turn with the rest of the body held at the frame's best pose:
 1. a coarse grid over the arm's four DOFs (:data:`GRID_DEG`: shoulder flexion x abduction x
    rotation x elbow flexion, 72 points, each clipped to the limits);
 2. the :data:`KEEP` best distinct grid points of each arm refined by :data:`SWEEPS` compass
-   sweeps on those four DOFs (``+- step`` on each, the best move kept when it improves; the
-   step :data:`STEP_DEG` halving per sweep), both arms in one measure call per sweep.
+   sweeps on those four DOFs (Hooke-Jeeves: ``+- step`` on each and the combined move of the
+   improving ones; the step :data:`STEP_DEG` halving per sweep), both arms in one measure call
+   per sweep.
 
 Everything it weighs joins the frame's pool, so a better arm becomes the frame's estimate and a
 kept particle of the next frame, and a worse one changes nothing.
@@ -38,7 +39,7 @@ GRID_DEG: tuple[tuple[float, ...], ...] = ((-30.0, 15.0, 60.0, 105.0), (0.0, 40.
 #: Distinct grid points of each arm refined by the compass sweeps.
 KEEP = 3
 #: Compass sweeps, and the first sweep's step (halved after each).
-SWEEPS = 5
+SWEEPS = 4
 STEP_DEG = 20.0
 
 
@@ -48,19 +49,33 @@ def grid() -> np.ndarray:
 
 
 def cost() -> int:
-    """Evaluations per frame: both arms' grids, then per sweep ``KEEP x 8`` moves per arm."""
-    return len(ARMS) * (len(grid()) + SWEEPS * KEEP * 8)
+    """Evaluations per frame: both arms' grids, then per sweep ``KEEP x 9`` per arm."""
+    return len(ARMS) * (len(grid()) + SWEEPS * KEEP * 9)
 
 
 def calls() -> tuple[int, ...]:
     """Particles of each measure call: the grids, then one call per sweep."""
-    return (len(ARMS) * len(grid()),) + (len(ARMS) * KEEP * 8,) * SWEEPS
+    return (len(ARMS) * len(grid()),) + (len(ARMS) * KEEP * 9,) * SWEEPS
+
+
+def _moves(centres: np.ndarray, arms: list[tuple[int, ...]], step: float) -> np.ndarray:
+    """(K x 9, D): each centre, then ``+- step`` on each of its arm's four DOFs."""
+    out = np.repeat(centres, 9, axis=0)
+    for j, arm in enumerate(arms):
+        for k, dof in enumerate(arm):
+            out[9 * j + 1 + 2 * k, dof] += step
+            out[9 * j + 2 + 2 * k, dof] -= step
+    return out
 
 
 def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
            clip: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Every arm's reach search from the (D,) ``best`` pose: (N, D) particles weighed, (N,)
-    their weights (N = :func:`cost`). ``measure`` (K, D) -> (K,); ``clip`` into the limits."""
+    their weights (N = :func:`cost`). ``measure`` (K, D) -> (K,); ``clip`` into the limits.
+
+    A sweep weighs, for each start, a centre and its eight moves in one call: the centre is the
+    last sweep's combined move (every DOF moved in its improving direction, Hooke-Jeeves), weighed
+    one sweep late so that a sweep is one call; each start keeps the best it has weighed."""
     best = np.asarray(best, np.float64)
     g = grid()
     cand = []
@@ -71,30 +86,32 @@ def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
     cand = clip(np.concatenate(cand))
     w = np.asarray(measure(cand), float)
     seen_p, seen_w = [cand], [w]
-    kept, kept_w = [], []
-    for a in range(len(ARMS)):
+    base, base_w, arms = [], [], []
+    for a, arm in enumerate(ARMS):
         part = slice(a * len(g), (a + 1) * len(g))
         idx = top_distinct(cand[part], w[part], KEEP)
-        kept.append(cand[part][idx])
-        kept_w.append(w[part][idx])
-    kept, kept_w = np.concatenate(kept), np.concatenate(kept_w)  # (A K, D): arm a's are rows a K..
-    arm_of = np.repeat(np.arange(len(ARMS)), KEEP)
+        base.append(cand[part][idx])
+        base_w.append(w[part][idx])
+        arms += [arm] * len(idx)
+    base, base_w = np.concatenate(base), np.concatenate(base_w)  # (S, D) starts, their weights
+    centre = base.copy()
     step = np.deg2rad(STEP_DEG)
     for _ in range(SWEEPS):
-        moves = np.repeat(kept, 8, axis=0)
-        for j in range(len(kept)):
-            for k, dof in enumerate(ARMS[arm_of[j]]):
-                moves[8 * j + 2 * k, dof] += step
-                moves[8 * j + 2 * k + 1, dof] -= step
-        moves = clip(moves)
+        moves = clip(_moves(centre, arms, step))
         mw = np.asarray(measure(moves), float)
         seen_p.append(moves)
         seen_w.append(mw)
-        per = mw.reshape(len(kept), 8)
+        per, at = mw.reshape(len(base), 9), moves.reshape(len(base), 9, -1)
         pick = per.argmax(axis=1)
-        better = per[np.arange(len(kept)), pick] > kept_w
-        kept[better] = moves.reshape(len(kept), 8, -1)[better, pick[better]]
-        kept_w[better] = per[better, pick[better]]
+        better = per[np.arange(len(base)), pick] > base_w
+        base[better] = at[better, pick[better]]
+        base_w[better] = per[better, pick[better]]
+        gain = per[:, 1:].reshape(len(base), 4, 2) - per[:, :1, None]  # (S, 4, +-)
+        direction = np.where((gain[..., 0] > 0) & (gain[..., 0] >= gain[..., 1]), 1.0,
+                             np.where(gain[..., 1] > 0, -1.0, 0.0))
+        centre = base.copy()  # the next sweep's centre: the combined move from this one's
+        for j, arm in enumerate(arms):
+            centre[j, list(arm)] = at[j, 0, list(arm)] + direction[j] * step
         step *= 0.5
     return np.concatenate(seen_p), np.concatenate(seen_w)
 
