@@ -295,8 +295,10 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
                 top = top_distinct(cand, w, m)
                 kept = cand[top]
         last_p, last_w = seen_p[-1], seen_w[-1]
-        if settings.reach:  # each arm over its whole range, from the best so far
+        if settings.reach:  # each arm over its whole range, from the best so far; clear gains kept
             pool_p, pool_w = reach.search(last_p[np.argmax(last_w)], measure, limits.clip)
+            keep = reach.gainers(pool_w, float(last_w.max()))
+            pool_p, pool_w = pool_p[keep], pool_w[keep]
             seen_p.append(pool_p)
             seen_w.append(pool_w)
             last_p, last_w = np.concatenate([last_p, pool_p]), np.concatenate([last_w, pool_w])

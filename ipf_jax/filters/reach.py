@@ -14,8 +14,9 @@ in turn with the rest of the body held at the frame's best pose:
    improving ones; the step :data:`STEP_DEG` halving per sweep), both arms in one measure call
    per sweep.
 
-Everything it weighs joins the frame's pool, so a better arm becomes the frame's estimate and a
-kept particle of the next frame, and a worse one changes nothing.
+The poses that beat the frame's best weight by more than :data:`MARGIN` join the frame's pool,
+so a clearly better arm becomes the frame's estimate and a kept particle of the next frame; the
+others change nothing.
 """
 from __future__ import annotations
 
@@ -41,6 +42,14 @@ KEEP = 3
 #: Compass sweeps, and the first sweep's step (halved after each).
 SWEEPS = 4
 STEP_DEG = 20.0
+#: What a reach pose must gain over the frame's best weight to be kept (a fraction of it):
+#: smaller gains are as likely an arm fitted to a shadow as the true one (docs/fipf.md).
+MARGIN = 0.03
+
+
+def gainers(weights: np.ndarray, best_weight: float) -> np.ndarray:
+    """(N,) bool: the reach poses that beat ``best_weight`` by more than :data:`MARGIN`."""
+    return np.asarray(weights) > best_weight * (1.0 + MARGIN)
 
 
 def grid() -> np.ndarray:
@@ -116,4 +125,5 @@ def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
     return np.concatenate(seen_p), np.concatenate(seen_w)
 
 
-__all__ = ["ARMS", "GRID_DEG", "KEEP", "STEP_DEG", "SWEEPS", "calls", "cost", "grid", "search"]
+__all__ = ["ARMS", "GRID_DEG", "KEEP", "MARGIN", "STEP_DEG", "SWEEPS", "calls", "cost", "gainers", "grid",
+           "search"]
