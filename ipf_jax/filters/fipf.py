@@ -114,7 +114,7 @@ class FIPFSettings(NamedTuple):
     polish_keep: int = 1  # distinct particles each polish sweep starts from
     polish_step: float = 0.25  # the first sweep's steps, as a fraction of compass.SEARCH_STD
     posture: bool = True  # the posture group after the trunk's (.posture; needs the body)
-    reach: bool = False  # each arm searched over its whole range after the rounds (.reach)
+    reach: bool = False  # an arm a frame searched over its whole range after the rounds (.reach)
 
     def stages(self) -> tuple[str, ...]:
         """The names of the searches of a round, in order: the groups, and the posture group
@@ -257,15 +257,17 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
     m = settings.top_m
     all_std = rate_std(default_noise_rates(), fps) * settings.noise_scale
     n = settings.evaluations()
-    n_keys = settings.rounds * len(stages) + 1
+    k_filler = settings.rounds * len(stages)  # the filler's key, then the reach's arm draw's
+    n_keys = k_filler + 1 + int(settings.reach)
     polish_step = SEARCH_STD * settings.polish_step
 
     def shapes_for(k: int) -> tuple:
         """(key index, shape) of each draw of a frame that starts from ``k`` kept particles."""
         return tuple((r * len(stages) + g, (k * len(st.offsets), len(st.noise_idx)))
                      for r in range(settings.rounds) for g, st in enumerate(stages)
-                     if len(st.noise_idx)) + (((n_keys - 1, (settings.filler, NUM_DOF)),)
-                                              if settings.filler else ())
+                     if len(st.noise_idx)) + (((k_filler, (settings.filler, NUM_DOF)),)
+                                              if settings.filler else ()) + (
+            ((k_filler + 1, (1,)),) if settings.reach else ())
 
     def draws(rng_key: jax.Array) -> tuple:
         return _split_and_draw(rng_key, n_keys, shapes_for(m))
@@ -286,7 +288,7 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
                         if stage.name == posture.NAME else _children(keys, i, kept, stage, scale, z.get(i)))
                 if r == 0 and g == 0 and settings.filler:
                     extra = kept[np.arange(settings.filler) % m]
-                    extra = extra + np.asarray(z[n_keys - 1], np.float64) * all_std
+                    extra = extra + np.asarray(z[k_filler], np.float64) * all_std
                     cand = np.concatenate([cand, extra])
                 cand = limits.clip(cand)
                 w = np.asarray(measure(cand), float)
@@ -295,8 +297,9 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
                 top = top_distinct(cand, w, m)
                 kept = cand[top]
         last_p, last_w = seen_p[-1], seen_w[-1]
-        if settings.reach:  # each arm over its whole range, from the best so far; clear gains kept
-            pool_p, pool_w = reach.search(last_p[np.argmax(last_w)], measure, limits.clip)
+        if settings.reach:  # an arm over its whole range, from the best so far; clear gains kept
+            arm = reach.pick(float(z[k_filler + 1][0]))
+            pool_p, pool_w = reach.search(last_p[np.argmax(last_w)], arm, measure, limits.clip)
             keep = reach.gainers(pool_w, float(last_w.max()))
             pool_p, pool_w = pool_p[keep], pool_w[keep]
             seen_p.append(pool_p)

@@ -9,10 +9,13 @@ in turn with the rest of the body held at the frame's best pose:
 
 1. a coarse grid over the arm's four DOFs (:data:`GRID_DEG`: shoulder flexion x abduction x
    rotation x elbow flexion, 72 points, each clipped to the limits);
-2. the :data:`KEEP` best distinct grid points of each arm refined by :data:`SWEEPS` compass
+2. the :data:`KEEP` best distinct grid points refined by :data:`SWEEPS` compass
    sweeps on those four DOFs (Hooke-Jeeves: ``+- step`` on each and the combined move of the
    improving ones; the step :data:`STEP_DEG` halving per sweep), both arms in one measure call
    per sweep.
+
+One arm a frame, drawn with the frame's key (:func:`pick`): an arm the track got wrong stays
+wrong for many frames, so it is found within a few, at half the cost.
 
 The poses that beat the frame's best weight by more than :data:`MARGIN` join the frame's pool,
 so a clearly better arm becomes the frame's estimate and a kept particle of the next frame; the
@@ -42,6 +45,9 @@ KEEP = 3
 #: Compass sweeps, and the first sweep's step (halved after each).
 SWEEPS = 4
 STEP_DEG = 20.0
+#: The tracker searches the arms' reach by default only with this many cameras or more
+#: (``--reach`` / ``--no-reach`` decide otherwise; measured: docs/fipf.md).
+MIN_VIEWS = 3
 #: What a reach pose must gain over the frame's best weight to be kept (a fraction of it):
 #: smaller gains are as likely an arm fitted to a shadow as the true one (docs/fipf.md).
 MARGIN = 0.03
@@ -52,19 +58,27 @@ def gainers(weights: np.ndarray, best_weight: float) -> np.ndarray:
     return np.asarray(weights) > best_weight * (1.0 + MARGIN)
 
 
+def pick(z: float) -> int:
+    """The arm searched this frame from one standard normal draw of the frame's key."""
+    return int(z > 0.0)
+
+
 def grid() -> np.ndarray:
     """(G, 4) the coarse grid's arm DOF values (radians)."""
     return np.deg2rad(np.array(list(itertools.product(*GRID_DEG))))
 
 
 def cost() -> int:
-    """Evaluations per frame: both arms' grids, then per sweep ``KEEP x 9`` per arm."""
-    return len(ARMS) * (len(grid()) + SWEEPS * KEEP * 9)
+    """Evaluations per frame: the arm's grid, then per sweep ``KEEP x 9``."""
+    return len(grid()) + SWEEPS * KEEP * 9
 
 
 def calls() -> tuple[int, ...]:
-    """Particles of each measure call: the grids, then one call per sweep."""
-    return (len(ARMS) * len(grid()),) + (len(ARMS) * KEEP * 9,) * SWEEPS
+    """Particles of each measure call: the grid, then one call per sweep.
+
+One arm a frame, drawn with the frame's key (:func:`pick`): an arm the track got wrong stays
+wrong for many frames, so it is found within a few, at half the cost."""
+    return (len(grid()),) + (KEEP * 9,) * SWEEPS
 
 
 def _moves(centres: np.ndarray, arms: list[tuple[int, ...]], step: float) -> np.ndarray:
@@ -77,32 +91,25 @@ def _moves(centres: np.ndarray, arms: list[tuple[int, ...]], step: float) -> np.
     return out
 
 
-def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
+def search(best: np.ndarray, arm: int, measure: Callable[[np.ndarray], np.ndarray],
            clip: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Every arm's reach search from the (D,) ``best`` pose: (N, D) particles weighed, (N,)
-    their weights (N = :func:`cost`). ``measure`` (K, D) -> (K,); ``clip`` into the limits.
+    """Arm ``arm``'s (of :data:`ARMS`) reach search from the (D,) ``best`` pose: (N, D) particles
+    weighed, (N,) their weights (N = :func:`cost`). ``measure`` (K, D) -> (K,); ``clip`` into the
+    limits.
 
     A sweep weighs, for each start, a centre and its eight moves in one call: the centre is the
     last sweep's combined move (every DOF moved in its improving direction, Hooke-Jeeves), weighed
     one sweep late so that a sweep is one call; each start keeps the best it has weighed."""
     best = np.asarray(best, np.float64)
     g = grid()
-    cand = []
-    for arm in ARMS:
-        c = np.repeat(best[None], len(g), axis=0)
-        c[:, arm] = g
-        cand.append(c)
-    cand = clip(np.concatenate(cand))
+    cand = np.repeat(best[None], len(g), axis=0)
+    cand[:, ARMS[arm]] = g
+    cand = clip(cand)
     w = np.asarray(measure(cand), float)
     seen_p, seen_w = [cand], [w]
-    base, base_w, arms = [], [], []
-    for a, arm in enumerate(ARMS):
-        part = slice(a * len(g), (a + 1) * len(g))
-        idx = top_distinct(cand[part], w[part], KEEP)
-        base.append(cand[part][idx])
-        base_w.append(w[part][idx])
-        arms += [arm] * len(idx)
-    base, base_w = np.concatenate(base), np.concatenate(base_w)  # (S, D) starts, their weights
+    idx = top_distinct(cand, w, KEEP)
+    base, base_w = cand[idx], w[idx]  # (S, D) starts, their weights
+    arms = [ARMS[arm]] * len(idx)
     centre = base.copy()
     step = np.deg2rad(STEP_DEG)
     for _ in range(SWEEPS):
@@ -125,5 +132,5 @@ def search(best: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
     return np.concatenate(seen_p), np.concatenate(seen_w)
 
 
-__all__ = ["ARMS", "GRID_DEG", "KEEP", "MARGIN", "STEP_DEG", "SWEEPS", "calls", "cost", "gainers", "grid",
+__all__ = ["ARMS", "GRID_DEG", "KEEP", "MARGIN", "MIN_VIEWS", "STEP_DEG", "SWEEPS", "calls", "cost", "gainers", "grid", "pick",
            "search"]

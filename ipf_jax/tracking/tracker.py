@@ -57,7 +57,7 @@ from ..data.silhouette import resize_mask
 from ..errors import IPFError, IPFWarning, require
 from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
-from ..filters import posture
+from ..filters import posture, reach
 from ..filters.posture import Body
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
@@ -279,11 +279,14 @@ class Tracker:
         return self.filter_for(None)
 
     def filter_options(self) -> dict:
-        """The filter's options: the given ones, and the factored filter's posture group on by
-        default only with :data:`~ipf_jax.filters.posture.MIN_VIEWS` cameras or more."""
+        """The filter's options: the given ones, and the factored filter's posture group and arms'
+        reach search on by default only with :data:`~ipf_jax.filters.posture.MIN_VIEWS` and
+        :data:`~ipf_jax.filters.reach.MIN_VIEWS` cameras or more."""
         opts = dict(self.settings.filter_options)
-        if self.settings.filter == "fipf" and opts.get("posture") is None:
-            opts["posture"] = len(self.cameras) >= posture.MIN_VIEWS
+        if self.settings.filter == "fipf":
+            for key, views in (("posture", posture.MIN_VIEWS), ("reach", reach.MIN_VIEWS)):
+                if opts.get(key) is None:
+                    opts[key] = len(self.cameras) >= views
         return opts
 
     def filter_for(self, shape: BodyShape | None) -> Filter:
