@@ -15,13 +15,15 @@ gets a deterministic search instead of IPF's white noise. Per frame (pseudo-code
                         centre included), g's noise DOFs jittered (not the centre child);
                         in round 0, group 0 also gets ``filler`` noisy copies (all DOFs)
             weigh the children;  kept <- the M heaviest distinct children
+    reach (with ``reach``): one arm, drawn, over its whole range from the best (.reach)
+    polish: compass sweeps from the best (``polish``)
     estimate <- the heaviest particle weighed this frame
 
 The grid of DOF d spans ``+- speed_d / fps`` (x ``speed_scale``, x ``shrink ** r``): a
 physiological maximum angular speed per DOF (:data:`MAX_SPEEDS`, with sources), not one width for
-all. The evaluations per frame are exactly ``M x rounds x sum(P ** |grid_g|) + filler``; with a
-budget, M is the largest that fits and the remainder is the ``filler`` (so the budget is spent
-exactly, never exceeded).
+all. The evaluations per frame are exactly ``M x rounds x sum(P ** |grid_g|) + filler`` plus the
+polish's and the reach's; with a budget, M is the largest that fits and the remainder is the
+``filler`` (so the budget is spent exactly, never exceeded).
 """
 from __future__ import annotations
 
