@@ -97,5 +97,6 @@ def test_the_tracker_searches_it_with_three_cameras_or_more_unless_told():
         cams = syn.ring_cameras(n, width=80, height=60, focal_px=150.0)
         ds = MemoryDataset(cams, syn.render_masks(pose, shape, cams), fps=FPS, up_axis="+z")
         opts = {} if asked is None else {"reach": asked}
-        f = Tracker(ds, TrackSettings(filter_options=opts, init_pose=pose[0], height_m=1.75)).filter_for(shape)
+        tracker = Tracker(ds, TrackSettings(filter_options=opts, init_pose=pose[0], height_m=1.75))
+        f = tracker.filter_for(shape)
         assert f.params["reach"] is expected and f.evaluations_per_frame == 6561, (n, asked)

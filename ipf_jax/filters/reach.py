@@ -132,5 +132,5 @@ def search(best: np.ndarray, arm: int, measure: Callable[[np.ndarray], np.ndarra
     return np.concatenate(seen_p), np.concatenate(seen_w)
 
 
-__all__ = ["ARMS", "GRID_DEG", "KEEP", "MARGIN", "MIN_VIEWS", "STEP_DEG", "SWEEPS", "calls", "cost", "gainers", "grid", "pick",
-           "search"]
+__all__ = ["ARMS", "GRID_DEG", "KEEP", "MARGIN", "MIN_VIEWS", "STEP_DEG", "SWEEPS", "calls", "cost",
+           "gainers", "grid", "pick", "search"]
