@@ -1,21 +1,20 @@
-"""The arms' reach search: each arm searched over its whole range from the frame's best pose.
+"""The arms' reach search: an arm searched over its whole range from the frame's best pose.
 
 The factored filter's arm groups search a few degrees around the kept particles, so an arm that
 the track got wrong (an arm hanging straight where the person holds the forearm forward, left
 by a noisy first frame) stays wrong: every small move from the hanging arm towards the bent one
 takes pixels off the body and scores worse, and the right arm sits in a narrow basin of its own
-(docs/fipf.md, "The arms' reach search"). This stage looks for that basin directly, for each arm
-in turn with the rest of the body held at the frame's best pose:
+(docs/fipf.md, "The arms' reach search"). This stage looks for that basin directly, with the rest
+of the body held at the frame's best pose, for one arm a frame, drawn with the frame's key
+(:func:`pick`: an arm the track got wrong stays wrong for many frames, so it is found within a
+few, at half the cost of both):
 
 1. a coarse grid over the arm's four DOFs (:data:`GRID_DEG`: shoulder flexion x abduction x
    rotation x elbow flexion, 72 points, each clipped to the limits);
-2. the :data:`KEEP` best distinct grid points refined by :data:`SWEEPS` compass
-   sweeps on those four DOFs (Hooke-Jeeves: ``+- step`` on each and the combined move of the
-   improving ones; the step :data:`STEP_DEG` halving per sweep), both arms in one measure call
-   per sweep.
-
-One arm a frame, drawn with the frame's key (:func:`pick`): an arm the track got wrong stays
-wrong for many frames, so it is found within a few, at half the cost.
+2. the :data:`KEEP` best distinct grid points refined by :data:`SWEEPS` compass sweeps on those
+   four DOFs (Hooke-Jeeves: ``+- step`` on each and the combined move of the improving ones,
+   weighed as the next sweep's centre so that a sweep is one measure call; the step
+   :data:`STEP_DEG` halving per sweep).
 
 The poses that beat the frame's best weight by more than :data:`MARGIN` join the frame's pool,
 so a clearly better arm becomes the frame's estimate and a kept particle of the next frame; the
