@@ -129,7 +129,7 @@ OPTIONS: tuple[Option, ...] = (
            "cameras or more; --no-posture: the groups alone, docs/fipf.md)", "filter"),
     Option("reach", "--reach", "bool", None, "FIPF: the arms' reach search, one arm a frame over "
            "its whole range from the frame's best pose, inside the budget (an arm the track got "
-           "wrong; default on with 3 cameras or more; --no-reach: off, docs/fipf.md)", "filter"),
+           "wrong; default on with 2 cameras or more; --no-reach: off, docs/fipf.md)", "filter"),
     Option("speed_scale", "--speed-scale", "float", None, "FIPF: multiply every DOF's maximum "
            "speed (the interval half-width is speed / fps; default 1)", "filter", check=_positive),
     Option("interval_width_deg", "--interval-width", "float", None, "IPF: full interval width, "
