@@ -116,22 +116,3 @@ def test_the_filter_with_a_body_spends_the_budget_and_declares_its_calls():
 def test_the_posture_group_without_a_body_is_one_clear_error():
     with pytest.raises(IPFError, match="posture group needs the body"):
         registry.make("fipf", {"posture": True}, LIMITS, FPS, 6561)
-
-
-def test_the_tracker_searches_it_with_three_cameras_or_more_unless_told():
-    """SYNTHETIC (self-rendered masks): the default follows the number of cameras; --posture and
-    --no-posture win."""
-    from ipf_jax.data.dataset import MemoryDataset
-    from ipf_jax.tracking.tracker import Tracker, TrackSettings
-    from ipf_jax.viz import synthetic as syn
-    shape = default_shape(1.75)
-    pose = syn.procedural_walk(1, FPS, shape=shape)
-    for n, asked, expected in ((1, None, False), (2, None, False), (3, None, True), (4, None, True),
-                               (1, True, True), (4, False, False)):
-        cams = syn.ring_cameras(n, width=80, height=60, focal_px=150.0)
-        ds = MemoryDataset(cams, syn.render_masks(pose, shape, cams), fps=FPS, up_axis="+z")
-        opts = {} if asked is None else {"posture": asked}
-        tracker = Tracker(ds, TrackSettings(filter_options=opts, init_pose=pose[0], height_m=1.75))
-        f = tracker.filter_for(shape)
-        assert f.params["posture"] is expected, (n, asked)
-        assert f.evaluations_per_frame == 6561 and tracker.filter.params == f.params

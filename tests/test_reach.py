@@ -82,21 +82,3 @@ def test_the_filter_spends_the_budget_with_it_and_keeps_m():
         off_state, info = off.step(jax.random.PRNGKey(frame), off_state, measure)
     assert info.best_weight < 0.51
     assert not off.params["reach"] and off.params["reach_cost"] == 0 and off.params["filler"] == 387
-
-
-def test_the_tracker_searches_it_with_two_cameras_or_more_unless_told():
-    """SYNTHETIC (self-rendered masks): the default follows the number of cameras; --reach and
-    --no-reach win."""
-    from ipf_jax.data.dataset import MemoryDataset
-    from ipf_jax.tracking.tracker import Tracker, TrackSettings
-    from ipf_jax.viz import synthetic as syn
-    shape = default_shape(1.75)
-    pose = syn.procedural_walk(1, FPS, shape=shape)
-    for n, asked, expected in ((1, None, False), (2, None, True), (3, None, True), (4, None, True),
-                               (1, True, True), (4, False, False)):
-        cams = syn.ring_cameras(n, width=80, height=60, focal_px=150.0)
-        ds = MemoryDataset(cams, syn.render_masks(pose, shape, cams), fps=FPS, up_axis="+z")
-        opts = {} if asked is None else {"reach": asked}
-        tracker = Tracker(ds, TrackSettings(filter_options=opts, init_pose=pose[0], height_m=1.75))
-        f = tracker.filter_for(shape)
-        assert f.params["reach"] is expected and f.evaluations_per_frame == 6561, (n, asked)
