@@ -14,7 +14,7 @@ from ipf_jax.sweep import backends, read_manifest
 # track command's options, which cannot switch re-initialisation off for a tiny filter
 TRACK = ["--frames", "0:2", "--init-pose", "pose0.csv", "--height", str(default_shape().height_m),
          "--up", "+z", "--chunk", "64", "--top-m", "2", "--points-per-dof", "2", "--polish", "0",
-         "--quiet"]
+         "--no-reach", "--quiet"]
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,13 @@
 """The factored filter's arms' reach search (ipf_jax.filters.reach): each arm over its whole range."""
 import jax
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ipf_jax.body import default_shape, load_limits
 from ipf_jax.body.model import NUM_DOF
+from ipf_jax.errors import IPFError
 from ipf_jax.filters import posture, reach, registry
 from ipf_jax.geometry.posing import gait_pose
 from ipf_jax.geometry.world import up_rotation
@@ -82,3 +84,14 @@ def test_the_filter_spends_the_budget_with_it_and_keeps_m():
         off_state, info = off.step(jax.random.PRNGKey(frame), off_state, measure)
     assert info.best_weight < 0.51
     assert not off.params["reach"] and off.params["reach_cost"] == 0 and off.params["filler"] == 387
+
+
+def test_the_camera_rule_gives_way_to_a_small_budget_but_an_asked_search_does_not():
+    # by the number of cameras (the tracker gives it): on from reach.MIN_VIEWS
+    assert not registry.resolve("fipf", {}, FPS, 6561, views=reach.MIN_VIEWS - 1).reach
+    assert registry.resolve("fipf", {}, FPS, 6561, views=reach.MIN_VIEWS).reach
+    # a budget too small for it drops it with the polish, unless asked for: then one clear error
+    small = registry.resolve("fipf", {"points_per_dof": 2}, FPS, 300, views=4)
+    assert not small.reach and small.polish == 0 and small.evaluations() == 300
+    with pytest.raises(IPFError, match="reach search 180"):
+        registry.resolve("fipf", {"points_per_dof": 2, "reach": True}, FPS, 300, views=4)

@@ -248,6 +248,21 @@ def _children(keys: jax.Array, i: int, kept: np.ndarray, stage: _Stage, scale: f
     return new
 
 
+
+def _params(settings: FIPFSettings) -> dict:
+    """What ``run.json`` records of the factored filter's settings (``filter_params``)."""
+    return {"top_m": settings.top_m, "points_per_dof": settings.points_per_dof, "rounds": settings.rounds,
+            "shrink": settings.shrink, "speed_scale": settings.speed_scale,
+            "noise_scale": settings.noise_scale, "filler": settings.filler,
+            "groups": {name: list(grid) for name, grid, _ in settings.groups},
+            "posture": settings.posture, "reach": settings.reach,
+            "reach_cost": settings.reach_cost(), "stages": list(settings.stages()),
+            "grid_sizes": list(settings.grid_sizes()),
+            "cost_per_particle": settings.cost_per_particle(), "polish": settings.polish,
+            "polish_keep": settings.polish_keep, "polish_step": settings.polish_step,
+            "polish_cost": settings.polish_cost(), "particles": settings.evaluations()}
+
+
 def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body | None = None) -> Filter:
     """The factored IPF kernel for fixed settings; ``body`` (the subject's shape values and up
     rotation) is what the posture group needs (:mod:`.posture`)."""
@@ -320,14 +335,4 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
         # the polish's last sweep
         return FilterState(last_p, last_w), info
 
-    params = {"top_m": m, "points_per_dof": settings.points_per_dof, "rounds": settings.rounds,
-              "shrink": settings.shrink, "speed_scale": settings.speed_scale,
-              "noise_scale": settings.noise_scale, "filler": settings.filler,
-              "groups": {name: list(grid) for name, grid, _ in settings.groups},
-              "posture": settings.posture, "reach": settings.reach,
-              "reach_cost": settings.reach_cost(), "stages": list(settings.stages()),
-              "grid_sizes": list(settings.grid_sizes()),
-              "cost_per_particle": settings.cost_per_particle(), "polish": settings.polish,
-              "polish_keep": settings.polish_keep, "polish_step": settings.polish_step,
-              "polish_cost": settings.polish_cost(), "particles": n}
-    return Filter("fipf", init_state, step, n, params, settings.calls(), draws)
+    return Filter("fipf", init_state, step, n, _params(settings), settings.calls(), draws)

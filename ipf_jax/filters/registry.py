@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 from ..body.limits import Limits
 from ..errors import IPFError, require
-from . import apf, fipf, ipf, posture, sir
+from . import apf, fipf, ipf, posture, reach, sir
 from .base import Filter
 
 NAMES = ("ipf", "fipf", "apf", "sir")
@@ -68,10 +68,13 @@ def evaluations(name: str, settings: NamedTuple) -> int:
             "sir": lambda s: s.particles}[name](settings)
 
 
-def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> NamedTuple:
+def resolve(name: str, options: dict, fps: float, budget: int | None = None,
+            views: int | None = None) -> NamedTuple:
     """The validated settings of filter ``name``: ``options`` (explicit, win) and the ``budget``
-    (evaluations per frame) mapped as the module doc says. Raises IPFError for any impossible
-    combination, without building anything."""
+    (evaluations per frame) mapped as the module doc says. ``views`` (the recording's cameras)
+    sets the factored filter's arms' reach search by default (:data:`.reach.MIN_VIEWS`; a budget
+    too small for it drops it like the polish, an explicit ``reach`` is kept or is an error).
+    Raises IPFError for any impossible combination, without building anything."""
     check_name(name)
     if budget is not None:
         require(isinstance(budget, numbers.Integral) and not isinstance(budget, bool) and budget >= 1,
@@ -80,7 +83,10 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> 
     options = {k: v for k, v in options.items() if v is not None}
     extra = sorted(set(options) - set(OPTIONS[name]))
     require(not extra, f"option(s) {', '.join(extra)} do not apply to the {name} filter")
-    settings = {"ipf": _ipf_settings, "fipf": _fipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
+    if name == "fipf":
+        settings = _fipf_settings(options, budget, views)
+    else:
+        settings = {"ipf": _ipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
     _MODULES[name].validate(settings)
     need = evaluations(name, settings)
     if budget is not None and need > budget:
@@ -90,7 +96,7 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None) -> 
 
 
 def make(name: str, options: dict, limits: Limits, fps: float, budget: int | None = None,
-         body: posture.Body | None = None) -> Filter:
+         body: posture.Body | None = None, views: int | None = None) -> Filter:
     """Build filter ``name``. Explicit options win over the ``budget`` (evaluations per frame).
     ``body`` (the subject's shape values and up rotation) lets the factored filter search its
     posture group (:mod:`.posture`); without one that group is off (asking for it is an error)."""
@@ -98,7 +104,7 @@ def make(name: str, options: dict, limits: Limits, fps: float, budget: int | Non
         require(not options.get("posture"), "the factored filter's posture group needs the body "
                 "(the tracker gives it)")
         options = {**options, "posture": False}
-    settings = resolve(name, options, fps, budget)
+    settings = resolve(name, options, fps, budget, views)
     return (fipf.build(settings, limits, fps, body) if name == "fipf"
             else _MODULES[name].build(settings, limits, fps))
 
@@ -148,13 +154,14 @@ def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
     return settings
 
 
-def _fipf_settings(options: dict, budget: int | None) -> fipf.FIPFSettings:
+def _fipf_settings(options: dict, budget: int | None, views: int | None = None) -> fipf.FIPFSettings:
     options, total = _sized(options, budget, fipf.DEFAULT_BUDGET)  # no size given: the paper's
-    settings = fipf.FIPFSettings(**options)
+    default = {} if "reach" in options else {"reach": views is not None and views >= reach.MIN_VIEWS}
+    settings = fipf.FIPFSettings(**{**default, **options})
     fipf.validate(settings)  # the given sizes first: the total is divided by the grids
     if total is not None:
-        for fallback in ({"polish": 0}, {"polish": 0, "points_per_dof": 2},
-                         {"polish": 0, "points_per_dof": 2, "rounds": 1}):
+        for fallback in ({"polish": 0, "reach": False}, {"polish": 0, "reach": False, "points_per_dof": 2},
+                         {"polish": 0, "reach": False, "points_per_dof": 2, "rounds": 1}):
             if total - settings.fixed_cost() >= settings.cost_per_particle() or set(fallback) & set(options):
                 break  # small budgets: no polish, then coarser grids, unless the user chose them
             settings = settings._replace(**fallback)
