@@ -248,7 +248,6 @@ def _children(keys: jax.Array, i: int, kept: np.ndarray, stage: _Stage, scale: f
     return new
 
 
-
 def _params(settings: FIPFSettings) -> dict:
     """What ``run.json`` records of the factored filter's settings (``filter_params``)."""
     return {"top_m": settings.top_m, "points_per_dof": settings.points_per_dof, "rounds": settings.rounds,
