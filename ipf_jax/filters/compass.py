@@ -33,6 +33,12 @@ def sweep_cost(keep: int, n_dof: int = NUM_DOF) -> int:
     return keep * (2 * n_dof + 1)
 
 
+def improving_direction(up: np.ndarray, down: np.ndarray) -> np.ndarray:
+    """Each DOF's step direction in Hooke-Jeeves' combined move, from the weight gained by ``+
+    step`` (``up``) and by ``- step`` (``down``): +1, -1, or 0 when neither improves."""
+    return np.where((up > 0) & (up >= down), 1.0, np.where(down > 0, -1.0, 0.0))
+
+
 def compass_search(particles: np.ndarray, weights: np.ndarray, measure: Callable[[np.ndarray], np.ndarray],
                    clip: Callable[[np.ndarray], np.ndarray], step: np.ndarray, *, keep: int,
                    sweeps: int) -> tuple[np.ndarray, np.ndarray, int]:
@@ -52,8 +58,7 @@ def compass_search(particles: np.ndarray, weights: np.ndarray, measure: Callable
         cand = clip((kept[:, None, :] + moves[None]).reshape(-1, n_dof))
         w = measure(cand).reshape(len(kept), 2 * n_dof)
         gain = w - kept_w[:, None]
-        up, down = gain[:, :n_dof], gain[:, n_dof:]
-        direction = np.where((up > 0) & (up >= down), 1.0, np.where(down > 0, -1.0, 0.0))
+        direction = improving_direction(gain[:, :n_dof], gain[:, n_dof:])
         combined = clip(kept + direction * step)
         wc = measure(combined)
         evaluations += cand.shape[0] + len(combined)

@@ -28,6 +28,7 @@ from typing import Callable
 import numpy as np
 
 from ..body.model import DOF_INDEX
+from .compass import improving_direction
 from .selection import top_distinct
 
 #: The DOFs of each arm, in the grid's order.
@@ -75,20 +76,17 @@ def cost() -> int:
 
 
 def calls() -> tuple[int, ...]:
-    """Particles of each measure call: the grid, then one call per sweep.
-
-One arm a frame, drawn with the frame's key (:func:`pick`): an arm the track got wrong stays
-wrong for many frames, so it is found within a few, at half the cost."""
+    """Particles of each measure call: the grid, then one call per sweep."""
     return (len(grid()),) + (KEEP * 9,) * SWEEPS
 
 
-def _moves(centres: np.ndarray, arms: list[tuple[int, ...]], step: float) -> np.ndarray:
-    """(K x 9, D): each centre, then ``+- step`` on each of its arm's four DOFs."""
+def _moves(centres: np.ndarray, dofs: tuple[int, ...], step: float) -> np.ndarray:
+    """(K x 9, D): each centre, then ``+- step`` on each of the arm's four ``dofs``."""
+    offsets = np.zeros((9, 4))
+    offsets[1::2] = np.eye(4) * step
+    offsets[2::2] = -np.eye(4) * step
     out = np.repeat(centres, 9, axis=0)
-    for j, arm in enumerate(arms):
-        for k, dof in enumerate(arm):
-            out[9 * j + 1 + 2 * k, dof] += step
-            out[9 * j + 2 + 2 * k, dof] -= step
+    out[:, list(dofs)] += np.tile(offsets, (len(centres), 1))
     return out
 
 
@@ -110,25 +108,22 @@ def search(best: np.ndarray, arm: int, measure: Callable[[np.ndarray], np.ndarra
     seen_p, seen_w = [cand], [w]
     idx = top_distinct(cand, w, KEEP)
     base, base_w = cand[idx], w[idx]  # (S, D) starts, their weights
-    arms = [ARMS[arm]] * len(idx)
+    dofs = list(ARMS[arm])
     centre = base.copy()
     step = np.deg2rad(STEP_DEG)
     for _ in range(SWEEPS):
-        moves = clip(_moves(centre, arms, step))
+        moves = clip(_moves(centre, ARMS[arm], step))
         mw = np.asarray(measure(moves), float)
         seen_p.append(moves)
         seen_w.append(mw)
         per, at = mw.reshape(len(base), 9), moves.reshape(len(base), 9, -1)
-        pick = per.argmax(axis=1)
-        better = per[np.arange(len(base)), pick] > base_w
-        base[better] = at[better, pick[better]]
-        base_w[better] = per[better, pick[better]]
+        top = per.argmax(axis=1)
+        better = per[np.arange(len(base)), top] > base_w
+        base[better] = at[better, top[better]]
+        base_w[better] = per[better, top[better]]
         gain = per[:, 1:].reshape(len(base), 4, 2) - per[:, :1, None]  # (S, 4, +-)
-        direction = np.where((gain[..., 0] > 0) & (gain[..., 0] >= gain[..., 1]), 1.0,
-                             np.where(gain[..., 1] > 0, -1.0, 0.0))
         centre = base.copy()  # the next sweep's centre: the combined move from this one's
-        for j, arm in enumerate(arms):
-            centre[j, list(arm)] = at[j, 0, list(arm)] + direction[j] * step
+        centre[:, dofs] = at[:, 0, dofs] + improving_direction(gain[..., 0], gain[..., 1]) * step
         step *= 0.5
     return np.concatenate(seen_p), np.concatenate(seen_w)
 

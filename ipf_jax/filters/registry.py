@@ -72,8 +72,9 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None,
             views: int | None = None) -> NamedTuple:
     """The validated settings of filter ``name``: ``options`` (explicit, win) and the ``budget``
     (evaluations per frame) mapped as the module doc says. ``views`` (the recording's cameras)
-    sets the factored filter's arms' reach search by default (:data:`.reach.MIN_VIEWS`; a budget
-    too small for it drops it like the polish, an explicit ``reach`` is kept or is an error).
+    sets the factored filter's posture group and arms' reach search by default
+    (:func:`_camera_rules`; a budget too small for the reach search drops it like the polish, an
+    explicit ``reach`` is kept or is an error).
     Raises IPFError for any impossible combination, without building anything."""
     check_name(name)
     if budget is not None:
@@ -154,10 +155,18 @@ def _ipf_settings(options: dict, budget: int | None) -> ipf.IPFSettings:
     return settings
 
 
+def _camera_rules(views: int | None) -> dict:
+    """The factored filter's searches that are on by default only with enough cameras: the
+    posture group (:data:`.posture.MIN_VIEWS`) and the arms' reach search
+    (:data:`.reach.MIN_VIEWS`); nothing when the number of cameras is not given."""
+    if views is None:
+        return {}
+    return {"posture": views >= posture.MIN_VIEWS, "reach": views >= reach.MIN_VIEWS}
+
+
 def _fipf_settings(options: dict, budget: int | None, views: int | None = None) -> fipf.FIPFSettings:
     options, total = _sized(options, budget, fipf.DEFAULT_BUDGET)  # no size given: the paper's
-    default = {} if "reach" in options else {"reach": views is not None and views >= reach.MIN_VIEWS}
-    settings = fipf.FIPFSettings(**{**default, **options})
+    settings = fipf.FIPFSettings(**{**_camera_rules(views), **options})
     fipf.validate(settings)  # the given sizes first: the total is divided by the grids
     if total is not None:
         for fallback in ({"polish": 0, "reach": False}, {"polish": 0, "reach": False, "points_per_dof": 2},

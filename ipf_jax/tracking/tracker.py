@@ -57,7 +57,6 @@ from ..data.silhouette import resize_mask
 from ..errors import IPFError, IPFWarning, require
 from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
-from ..filters import posture
 from ..filters.posture import Body
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
@@ -278,15 +277,6 @@ class Tracker:
         """The filter before the subject is known (its name, parameters, budget)."""
         return self.filter_for(None)
 
-    def filter_options(self) -> dict:
-        """The filter's options: the given ones, and the factored filter's posture group on by
-        default only with :data:`~ipf_jax.filters.posture.MIN_VIEWS` cameras or more (the arms'
-        reach search's camera rule is the registry's: it gets the number of cameras)."""
-        opts = dict(self.settings.filter_options)
-        if self.settings.filter == "fipf" and opts.get("posture") is None:
-            opts["posture"] = len(self.cameras) >= posture.MIN_VIEWS
-        return opts
-
     def filter_for(self, shape: BodyShape | None) -> Filter:
         """The filter for the subject's ``shape`` (None: before it is known, the template's body
         stands in): its posture group holds that body's feet (:mod:`ipf_jax.filters.posture`),
@@ -298,7 +288,7 @@ class Tracker:
             limits = FloorContact(self.limits, shape, self.U, *s.floor_range) if contact else self.limits
             body = Body(np.asarray((shape or self.base_shape).values, np.float64),
                         np.asarray(self.U, np.float64))
-            f = registry.make(s.filter, self.filter_options(), limits, self.fps, budget=s.budget, body=body,
+            f = registry.make(s.filter, s.filter_options, limits, self.fps, budget=s.budget, body=body,
                               views=len(self.cameras))
             self._filters = {0: self._filters.get(0, (None, f)), k: (shape, f)}
         f = self._filters[k][1]
