@@ -6,7 +6,7 @@ user did not give so that it spends as much of the budget as it can without exce
 ========  =====================================================================================
 ipf       M = budget // I (I = P^|L| grid points; ``particles`` stands for M x I the same way)
 fipf      the polish first (6 compass sweeps of one particle: 378; and the arms' reach search
-          when on: 180), then M = the rest //
+          when on: 204), then M = the rest //
           (rounds x sum of the group grids, the posture group's 27 with a body); the remainder
           is ``filler`` (noisy copies), so the budget is spent exactly (``particles`` stands for
           the budget); with neither, the paper's 6561. Below 1206 (the polish and one particle's
