@@ -10,8 +10,9 @@ given), three poses are weighed on the frame's masks, all the tracked pose but f
 DOFs (shoulder flexion, abduction, rotation, elbow flexion):
 
 * ``tracked``: the run's pose;
-* ``truth``: the arm's DOFs solved so that its elbow and wrist come nearest the truth's (least
-  squares from six starts, inside the limits): what the likelihood says of the right arm;
+* ``truth``: the arm's DOFs solved so that its elbow and wrist come nearest the truth's (the
+  limb solve of :func:`ipf_jax.geometry.retarget.hold` from six starts, inside the limits): what
+  the likelihood says of the right arm;
 * ``reach``: the best pose of :func:`ipf_jax.filters.reach.search` from the tracked pose (what the
   factored filter's reach search would find there).
 
@@ -28,7 +29,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ipf_jax.body.limits import load_limits
 from ipf_jax.body.model import POINT_INDEX
@@ -38,10 +38,13 @@ from ipf_jax.data.runfiles import read_joints_csv, read_pose_rows
 from ipf_jax.data.silhouette import resize_mask
 from ipf_jax.filters import reach
 from ipf_jax.geometry.kinematics import forward_kinematics
+from ipf_jax.geometry.retarget import KEPT_POINTS, hold, limb_points
 from ipf_jax.geometry.world import up_rotation
 from ipf_jax.likelihood.scorer import Scorer, make_observation, scoring_cameras, weights_from_counts
 
 SIDES = ("left", "right")
+#: Starts of the arm's solve onto the truth (the tracked arm and random ones)
+STARTS = 6
 
 
 class Run:
@@ -62,7 +65,7 @@ class Run:
         self.cams, self.scales = scoring_cameras(self.ds.cameras, doc["settings"]["resolution"])
         self.scorer = Scorer(self.cams, load_shape(run_dir / "shape.json"), self.up)
         lim = load_limits(doc["limits"]["name"])
-        self.lo, self.hi, self.clip = np.asarray(lim.lower, float), np.asarray(lim.upper, float), lim.clip
+        self.clip = lim.clip
 
     def points(self, q: np.ndarray) -> np.ndarray:
         return forward_kinematics(q, self.shape, self.up, xp=np).points
@@ -81,22 +84,20 @@ class Run:
         return lambda q: weights_from_counts(self.scorer.counts(np.asarray(q), obs), obs.active)[0]
 
     def truth_arm(self, q0: np.ndarray, frame: int, side: str) -> np.ndarray:
-        """``q0`` with the arm's DOFs solved onto the truth's elbow and wrist."""
-        dofs = list(reach.ARMS[SIDES.index(side)])
-        idx = [POINT_INDEX[f"{side}_{j}"] for j in ("elbow", "wrist")]
-        goal = np.stack([self.true_point(frame, f"{side}_{j}") for j in ("elbow", "wrist")])
-
-        def residual(a):
-            q = q0.copy()
-            q[dofs] = a
-            return (self.points(q)[idx] - goal).ravel()
-        lo, hi = self.lo[dofs] + 1e-6, self.hi[dofs] - 1e-6
-        rng = np.random.default_rng(0)
-        fits = [least_squares(residual, np.clip(q0[dofs] + rng.normal(0, 0.8 if s else 0.0, 4), lo, hi),
-                              bounds=(lo, hi)) for s in range(6)]
-        out = q0.copy()
-        out[dofs] = min(fits, key=lambda f: f.cost).x
-        return out
+        """``q0`` with the arm's DOFs solved onto the truth's elbow and wrist
+        (:func:`ipf_jax.geometry.retarget.hold` from the tracked arm and five random ones; the
+        start nearest the truth kept: from a straight elbow the shoulder's rotation moves nothing)."""
+        joints = [f"{side}_{j}" for j in ("elbow", "wrist")]
+        which = np.array([list(KEPT_POINTS).index(POINT_INDEX[j]) for j in joints])
+        goal = np.stack([self.true_point(frame, j) for j in joints])
+        starts = np.repeat(q0[None], STARTS, axis=0)
+        noise = np.random.default_rng(0).normal(0, 0.8, (STARTS - 1, 4))
+        starts[1:, list(reach.ARMS[SIDES.index(side)])] += noise
+        fits = hold(self.clip(starts), np.broadcast_to(self.shape, (STARTS, len(self.shape))),
+                    np.broadcast_to(goal, (STARTS, 2, 3)), self.up, self.clip, which=which,
+                    iterations=40)
+        miss = ((limb_points(fits, self.shape, self.up, which=which) - goal) ** 2).sum((1, 2))
+        return fits[np.argmin(miss)]
 
 
 def probe(run: Run, frame: int, side: str) -> dict:
