@@ -126,13 +126,14 @@ def search(best: np.ndarray, arm: int, measure: Callable[[np.ndarray], np.ndarra
     best = np.asarray(best, np.float64)
     dofs = list(ARMS[arm])
     seen: list = []
-    upper = np.repeat(best[None], len(grid()), axis=0)
-    upper[:, dofs] = grid()
+    arms, forearms = grid(), forearm_grid()
+    upper = np.repeat(best[None], len(arms), axis=0)
+    upper[:, dofs] = arms
     upper, w = _weighed(upper, measure, clip, seen)
     top = top_distinct(upper, w, FOREARM_KEEP)  # the best distinct upper arms
-    k, n_fore = len(top), len(forearm_grid())
+    k, n_fore = len(top), len(forearms)
     fore = np.repeat(upper[top], n_fore, axis=0)
-    fore[:, dofs[2:]] = np.tile(forearm_grid(), (k, 1))
+    fore[:, dofs[2:]] = np.tile(forearms, (k, 1))
     fore, fw = _weighed(fore, measure, clip, seen)
     # each upper arm's family: its grid point and its forearms; the sweeps start from each's best
     fam = np.concatenate([upper[top][:, None], fore.reshape(k, n_fore, -1)], axis=1)
