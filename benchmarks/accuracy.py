@@ -13,7 +13,11 @@ tracker declared ``lost`` (nan rows) are not scored in those; ``mpjpe_guess_mm``
 (``declared_lost`` counts them; without any, they equal the plain figures). ``lowpass_mm`` scores
 the joints low-passed as ``ipf-jax track --smooth`` writes them (``joints_smoothed.csv``: the gait
 analysis' 5 Hz zero-lag Butterworth, docs/export.md), what a gait lab would filter the trajectories
-to; the other columns score the raw per-frame estimates of ``joints.csv``. Finished sets
+to; ``fixed_mm`` (one-camera walks only: absent elsewhere) scores the run after ``ipf-jax
+fix-single`` with its defaults (leg swaps corrected, the depth steadied along the camera's rays:
+docs/single_camera.md; written to ``DIR/fixed/RUN``), what that page tells one-camera users to
+run; its assumptions (a walk in a straight line) do not hold for the sit-to-stand (``_sts``) sets. The other
+columns score the raw per-frame estimates of ``joints.csv``. Finished sets
 are skipped on a rerun when the same ``ipf_jax`` sources (a hash of their files) and track options
 made them (``DIR/runs/SET/accuracy_stamp.json``); a finished run made otherwise stops the script
 with an error naming it, so another version's run is never scored as this one's (delete
@@ -53,6 +57,8 @@ from ipf_jax.analysis.evaluation.metrics import (
     systematic_doc,
 )
 from ipf_jax.analysis.export.smoothed import smooth_joints
+from ipf_jax.analysis.singlecam import fix_single_camera
+from ipf_jax.data.dataset import open_dataset
 from ipf_jax.data.rundir import read_run
 from ipf_jax.data.runfiles import JOINT_COLUMNS, read_joints_csv, write_rows
 from ipf_jax.lowered import source_version
@@ -166,7 +172,21 @@ def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str |
             "lost_frames_guess": loss["lost_frames"],
             **(guess if declared else {}),
             "recovery": {k: v for k, v in (run.get("recovery") or {}).items() if k != "per_attempt"},
+            **fixed_single(run_dir, root / name, out / "fixed" / (run_name or name), run),
             "per_joint": sysdoc["per_joint"]}
+
+
+def fixed_single(run_dir: Path, data_dir: Path, fixed_dir: Path, run: dict) -> dict:
+    """A one-camera walk's run after ``ipf-jax fix-single`` (its defaults), scored:
+    ``fixed_mm`` and ``fixed_offset_free_mm``; nothing for other runs."""
+    used = run.get("cameras") or []
+    if len(used) != 1 or "_sts" in data_dir.name:
+        return {}
+    camera = {c.name: c for c in open_dataset(data_dir).cameras}[used[0]]
+    fix_single_camera(run_dir, fixed_dir, camera=camera)
+    ev, _, _ = evaluate_files(fixed_dir / "joints.csv", data_dir / "ground_truth.csv")
+    return {"fixed_mm": 1000 * ev.mpjpe_m,
+            "fixed_offset_free_mm": 1000 * systematic_doc(ev)["mpjpe_offset_free_m"]}
 
 
 def with_best_guesses(run_dir: Path, run: dict) -> Path:
@@ -203,7 +223,25 @@ def markdown(rows: list[dict]) -> str:
     if ok:
         lines.append("| **mean** | " + " | ".join(
             f"{np.mean([r[c] for r in ok]):.1f}" for c in COLUMNS[1:8]) + " |" + " |" * (len(COLUMNS) - 8))
+        lines += fixed_markdown([r for r in ok if "fixed_mm" in r], several)
     return "\n".join(lines)
+
+
+FIXED_COLUMNS = ("mpjpe_mm", "fixed_mm", "offset_free_mm", "fixed_offset_free_mm")
+
+
+def fixed_markdown(rows: list[dict], several: bool) -> list[str]:
+    """The one-camera walks' rows before and after ``fix-single`` (no lines without any)."""
+    if not rows:
+        return []
+    lines = ["", "One-camera walks after `ipf-jax fix-single` (leg swaps, steady depth):", "",
+             "| set | " + " | ".join(FIXED_COLUMNS) + " |", "|---" * (len(FIXED_COLUMNS) + 1) + "|"]
+    for r in rows:
+        name = r["set"] + (f" (seed {r['seed']})" if several else "")
+        lines.append(f"| {name} | " + " | ".join(f"{r[c]:.1f}" for c in FIXED_COLUMNS) + " |")
+    means = [f"{np.mean([r[c] for r in rows]):.1f}" for c in FIXED_COLUMNS]
+    lines.append("| **mean** | " + " | ".join(means) + " |")
+    return lines
 
 
 SEED_COLUMNS = ("mpjpe_mm", "offset_free_mm", "leg_offset_mm")
