@@ -120,8 +120,9 @@ def source_hash(tree: str | None) -> str:
 
 
 def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str | None,
-            run_name: str | None = None, source: str = "") -> dict:
-    """Track one set (unless a finished run of the same sources and options is there) and score it."""
+            run_name: str | None = None, source: str = "", fixed: bool = False) -> dict:
+    """Track one set (unless a finished run of the same sources and options is there) and score it;
+    ``fixed``: a one-camera walk is scored after ``fix-single`` too (:func:`fixed_single`)."""
     run_dir = out / "runs" / (run_name or name)
     done = run_dir / "run.json"
     stamp = {"source": source, "track_args": track_args}
@@ -172,7 +173,7 @@ def run_set(name: str, root: Path, out: Path, track_args: list[str], tree: str |
             "lost_frames_guess": loss["lost_frames"],
             **(guess if declared else {}),
             "recovery": {k: v for k, v in (run.get("recovery") or {}).items() if k != "per_attempt"},
-            **fixed_single(run_dir, root / name, out / "fixed" / (run_name or name), run),
+            **(fixed_single(run_dir, root / name, out / "fixed" / (run_name or name), run) if fixed else {}),
             "per_joint": sysdoc["per_joint"]}
 
 
@@ -308,7 +309,7 @@ def main(argv=None) -> int:
     for seed, name in ((k, n) for k in seeds for n in set_names(args.sets, root)):
         src = three_camera_set(name, root, out) if name.endswith("_3cam") else root
         row = run_set(name, src, out, [*args.track_args, "--seed", str(seed)], args.python_path,
-                      name if len(seeds) == 1 else f"{name}@seed{seed}", source)
+                      name if len(seeds) == 1 else f"{name}@seed{seed}", source, fixed=True)
         row["seed"] = seed
         rows.append(row)
         print(f"seed={seed} " * (len(seeds) > 1) + " ".join(f"{c}={row[c]:.1f}" if isinstance(row.get(c), float) else f"{c}={row.get(c)}"
