@@ -210,9 +210,16 @@ CASES = {
         r"interval width must be > 0 degrees", None),
     "negative_interval_width": (
         lambda ds: ["--filter", "ipf", "--interval-width", "-5"], "--interval-width -5.0",
-        r"interval width must be > 0 degrees \(got -5\.0\)", None),
+        r"interval width must be > 0 degrees and finite \(got -5\.0\)", None),
     "negative_noise": (
         lambda ds: ["--noise-scale", "-1"], "--noise-scale -1.0", r"noise scale must be >= 0", None),
+    "infinite_noise": (  # used to fail on frame 1 with NumPy warnings and "rerun with --resume"
+        lambda ds: ["--filter", "sir", "--particles", "50", "--noise-scale", "inf", "--"],
+        "--noise-scale inf",
+        r"noise scale must be >= 0 and finite \(got inf\)", None),
+    "infinite_max_speed": (
+        lambda ds: ["--filter", "ipf", "--max-speed", "inf"], "--max-speed inf",
+        r"max angular speed must be > 0 and finite \(got inf\)", None),
     "zero_apf_layers": (
         lambda ds: ["--filter", "apf", "--layers", "0", "--"], "--layers 0",
         r"at least one layer \(got 0\)", None),

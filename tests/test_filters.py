@@ -178,6 +178,13 @@ def test_explicit_parameters_win_over_the_budget():
     ("apf", {"survival": 1.5}, None, "survival fraction"),
     ("apf", {"layers": 0}, None, "at least one layer"),
     ("sir", {"noise_scale": -1.0}, None, "noise scale"),
+    ("sir", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("apf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("fipf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("fipf", {"speed_scale": float("inf")}, None, "speed scale must be > 0 and finite"),
+    ("ipf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("ipf", {"max_speed_deg_s": float("inf")}, None, "max angular speed must be > 0 and finite"),
+    ("ipf", {"interval_width_deg": float("inf")}, None, "interval width must be > 0 degrees and finite"),
     ("sir", {"particles": 0}, None, "at least one particle"),
 ])
 def test_impossible_settings_are_one_clear_error(name, options, budget, problem):
