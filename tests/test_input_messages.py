@@ -170,3 +170,15 @@ def test_init_dataset_refuses_a_background_of_another_size(tmp_path, capsys):
     cv2.imwrite(str(tmp_path / "bg.png"), np.zeros((30, 40, 3), np.uint8))
     assert main(["init-dataset", str(tmp_path / "cam1"), "--calibration", str(tmp_path / "c.json"),
                  "--background", str(tmp_path / "bg.png"), "--out", str(tmp_path / "d")]) == 0
+
+
+def test_a_camera_list_naming_no_camera_is_refused():
+    """render --cameras ',' and fix-single --camera ',' were internal errors (an empty selection)."""
+    from ipf_jax.data.dataset import pick_cameras
+
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75)
+    for text in (",", " ", " , "):
+        said = r"--cameras '.*' names no camera \(cameras: Camera1, Camera2, or 1..2\)"
+        with pytest.raises(IPFError, match=said):
+            pick_cameras(cams, text, "--cameras")
+    assert pick_cameras(cams, "2, Camera1", "--cameras") == [1, 0] and pick_cameras(cams, None) == [0, 1]

@@ -202,4 +202,6 @@ def pick_cameras(cameras, text: str | None, option: str = "cameras") -> list[int
         else:
             raise IPFError(f"{option}: no camera {item!r} (cameras: {', '.join(names)}, or 1.."
                            f"{len(cameras)})")
+    require(bool(out), f"{option} {text!r} names no camera (cameras: {', '.join(names)}, or 1.."
+            f"{len(cameras)})")
     return out
