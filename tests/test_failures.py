@@ -11,6 +11,7 @@ import json
 import os
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import cv2
@@ -407,6 +408,13 @@ def test_tracking_into_a_previous_run_says_it_replaces_it(base, tmp_path, capsys
     code, lines = run_cli(argv, capsys)
     assert code == 0 and len(lines) == 1, lines
     assert lines[0].startswith("warning: ") and "holds a previous run (run.json, checkpoint.npz)" in lines[0]
+    before = (out / "run.json").read_text()
+    for bad in (["--init-pose", str(base / "no_such_pose.csv")], ["--frames", "50:60"]):
+        with warnings.catch_warnings():  # as in a new process: the warning not shown once only
+            warnings.simplefilter("always")
+            code, lines = run_cli([*argv, *bad], capsys)  # refused before the run: no "replaced" line
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), lines
+    assert (out / "run.json").read_text() == before
 
 
 def test_masks_that_are_all_foreground_are_skipped_like_empty_ones(base, tmp_path, capsys):
