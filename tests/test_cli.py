@@ -202,6 +202,36 @@ def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
         assert not (tmp_path / f"x.{fmt}").exists()
 
 
+
+def test_export_never_overwrites_the_run_it_reads(tmp_path, capsys):
+    """--out RUN/joints.csv replaced the run's own joints with the export (mm columns, other axes);
+    --out a folder left a stray FILE.tmp."""
+    from ipf_jax.data.runfiles import JOINT_COLUMNS
+
+    run = tmp_path / "run"
+    run.mkdir()
+    row = ",".join(["0.5"] * (len(JOINT_COLUMNS) - 2))
+    joints = ",".join(JOINT_COLUMNS) + "\n" + f"0,0.0,{row}\n1,0.05,{row}\n"
+    (run / "joints.csv").write_text(joints)
+    (run / "run.json").write_text('{"fps": 20.0, "up_axis": "+z"}')
+    for name in ("joints.csv", "run.json"):
+        line = _one_error(["export", str(run), "--format", "csv", "--units", "mm", "--out", str(run / name)],
+                          capsys)
+        assert f"{name}: is one of the run's own files" in line
+    assert (run / "joints.csv").read_text() == joints
+    assert "is a folder" in _one_error(["export", str(run), "--format", "csv", "--out", str(run)], capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    from ipf_jax.cli import main
+
+    assert main(["export", str(run), "--format", "csv", "--out", str(run / "export.csv")]) == 0
+    from ipf_jax.data.runfiles import write_rows
+    from ipf_jax.errors import IPFError
+
+    with pytest.raises(IPFError, match="cannot write"):  # the writer itself leaves no FILE.tmp either
+        write_rows(run, ["frame", "time_s", "a"], [0], [0.0], [[1.0]])
+    assert not (tmp_path / "run.tmp").exists()
+
+
 def test_usage_errors_are_one_line_too(capsys):
     import pytest
 
