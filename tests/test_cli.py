@@ -193,6 +193,16 @@ def test_init_dataset_and_compare_check_their_values_before_any_work(tmp_path, c
     assert "--peer-seconds -1.0 needs --peer" in _one_error(
         ["compare", str(tmp_path), "--budget", "100", "--out", str(tmp_path / "cmp"),
          "--peer-seconds", "-1"], capsys)
+    from ipf_jax.body import default_shape
+    from ipf_jax.viz import synthetic as syn
+
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75)
+    walk = syn.write_dataset(tmp_path / "walk", cams, syn.render_masks(
+        syn.procedural_walk(2, shape=default_shape(1.75)), default_shape(1.75), cams))
+    compare = ["compare", str(walk), "--budget", "100", "--out", str(tmp_path / "cmp")]
+    assert "--peer-shape s.txt needs --peer" in _one_error([*compare, "--peer-shape", "s.txt"], capsys)
+    assert "nope.txt: bodytrack poses file not found" in _one_error([*compare, "--peer", "nope.txt"], capsys)
+    assert not (tmp_path / "cmp").exists()
 
 
 def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
