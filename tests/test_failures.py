@@ -439,3 +439,14 @@ def test_masks_that_are_all_foreground_are_skipped_like_empty_ones(base, tmp_pat
     code, lines = run_cli(["track", str(ds), *COMMON, *FILTER, "--out", str(out)], capsys)
     assert code == 2 and len(lines) == 1 and "nearly all foreground on every frame" in lines[0], lines
     assert json.loads((out / "run.json").read_text())["frames"]["missing"] == N_FRAMES
+
+
+def test_an_up_axis_the_cameras_contradict_is_a_warning(base, tmp_path, capsys):
+    """--up -z on a +z world tracked the body upside down, silently on a short run."""
+    argv = ["track", str(base), *COMMON, *FILTER, "--init-pose", str(base / "init.csv"), "--frames", "0:2"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        _, lines = run_cli([*argv, "--up=-z", "--out", str(tmp_path / "wrong")], capsys)
+        said = "warning: up axis -z given, but the cameras show +z as up"
+        assert any(line.startswith(said) for line in lines), lines
+        assert run_cli([*argv, "--up=+z", "--out", str(tmp_path / "right")], capsys) == (0, [])
