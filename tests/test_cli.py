@@ -240,6 +240,8 @@ def test_export_never_overwrites_the_run_it_reads(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
     from ipf_jax.cli import main
 
+    assert "--format csv but the file is named .trc" in _one_error(  # wrote CSV text into x.trc
+        ["export", str(run), "--format", "csv", "--out", str(tmp_path / "x.trc")], capsys)
     assert main(["export", str(run), "--format", "csv", "--out", str(run / "export.csv")]) == 0
     from ipf_jax.data.runfiles import write_rows
     from ipf_jax.errors import IPFError

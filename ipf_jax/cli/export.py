@@ -63,6 +63,9 @@ def run(args: argparse.Namespace) -> int:
         if fmt not in EXPORTERS:
             raise IPFError(f"cannot tell the format from the suffix {out.suffix!r}; use --format "
                            f"({', '.join(EXPORTERS)})", out)
+        named = out.suffix.lower().lstrip(".")
+        require(named not in EXPORTERS or named == fmt, f"--format {fmt} but the file is named "
+                f".{named}: a {fmt} file under another format's name (rename it or drop --format)", out)
         export, up, units = EXPORTERS[fmt]
         out = check_output_file(out)  # a folder or an unwritable place: said before any work
         run_data = read_run(args.run_dir)
