@@ -221,7 +221,9 @@ BAD = [
     ({**base_doc(masks="../masks"), "camera_height": "from_person"}, "needs 'height_m'"),
     ({**base_doc(masks="../masks"), "camera_height": -1, "up_axis": "+z"}, "camera_height"),
     ({**base_doc(masks="../masks"), "fps": -3}, "'fps' must be a positive number"),
-    ({**base_doc(masks="../masks"), "fps": 0}, "'fps' must be a positive number, got 0"),
+    ({**base_doc(masks="../masks"), "fps": 0}, "'fps' must be a positive number up to 10000 Hz .*, got 0"),
+    # tracked with every time_s 0.000000 (6 decimals): eval and gait then refused the run
+    ({**base_doc(masks="../masks"), "fps": 1e9}, "'fps' must be a positive number up to 10000 Hz"),
     ({"calibration": "../cameras.json", "cameras": [{"masks": "../masks", "name": "cam1"},
                                                     {"masks": "../masks", "name": "cam1"}]},
      r"names camera\(s\) cam1 more than once"),
