@@ -236,6 +236,8 @@ CASES = {
     "seed_beyond_32_bits": (
         lambda ds: ["--seed", "99999999999999999999"], "--seed 99999999999999999999",
         r"must be 0\.\.4294967295", None),
+    "huge_chunk": (  # was an internal error: a chunk is padded to its size (231 GB)
+        lambda ds: ["--chunk", "1000000000"], "--chunk 1000000000", r"must be 1\.\.65536", None),
     "infinite_speed_scale": (
         lambda ds: ["--speed-scale", "inf"], "--speed-scale inf", r"must be > 0 and finite", None),
     "initial_pose_off_every_camera": (
