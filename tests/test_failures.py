@@ -236,6 +236,9 @@ CASES = {
     "seed_beyond_32_bits": (
         lambda ds: ["--seed", "99999999999999999999"], "--seed 99999999999999999999",
         r"must be 0\.\.4294967295", None),
+    "huge_particle_count": (  # 10^10 SIR particles waited for ever (SIGTERM too) on an allocation
+        lambda ds: ["--filter", "sir", "--particles", "10000000000", "--"], "--particles 10000000000",
+        r"sir would make 10000000000 likelihood evaluations per frame, more than 1000000", None),
     "huge_chunk": (  # was an internal error: a chunk is padded to its size (231 GB)
         lambda ds: ["--chunk", "1000000000"], "--chunk 1000000000", r"must be 1\.\.65536", None),
     "infinite_speed_scale": (
