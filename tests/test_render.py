@@ -129,14 +129,21 @@ def test_track_overlay_writer(scene, tmp_path):
     (["--size", "8"], "--size must be 32..4096"),
     (["--dataset", "/nonexistent/folder"], "dataset folder not found"),
     (["--images"], "no camera image for frame 0: use --masks"),
-    (["--out", "walk.gif"], "cannot write .gif files: give a .mp4"),  # made a folder named walk.gif
 ])
 def test_render_mistakes(scene, tmp_path, capsys, extra, message):
     assert main(["render", str(scene["run"]), "--out", str(tmp_path / "x.mp4"), "--quiet",
                  *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and message in err and "\n" not in err
-    assert not (tmp_path / "walk.gif").exists()
+
+
+def test_render_refuses_media_it_cannot_write(scene, tmp_path, capsys):
+    """--out walk.gif made a folder of PNGs named walk.gif and exited 0."""
+    out = tmp_path / "walk.gif"
+    assert main(["render", str(scene["run"]), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "cannot write .gif files: give a .mp4" in err and "\n" not in err
+    assert not out.exists()
 
 
 def test_render_refuses_a_damaged_run_json(scene, tmp_path, capsys):
