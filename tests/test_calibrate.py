@@ -136,7 +136,11 @@ def test_bad_sizes_and_markers_are_one_error_line(tmp_path, capsys):
 
     for extra, message in ((["--size", "abc", "--intrinsics", "left=x.xml"], "--size must look like WIDTHxHEIGHT"),
                            (["--charuco", "--marker", "0.05", "--camera", "left=x*.jpg"],
-                            "--marker must be positive and smaller than --square")):
+                            "--marker must be positive and smaller than --square"),
+                           (["--square", "inf", "--camera", "left=x*.jpg"],  # was an OpenCV internal error
+                            "--square must be positive and finite, got inf"),
+                           (["--camera", "left=a*.jpg", "--camera", "left=b*.jpg"],  # the first was dropped
+                            "--camera left given twice")):
         code = main(["calibrate", "--board", "9x6", "--square", "0.025", *extra,
                      "--out", str(tmp_path / "c.json")])
         err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]

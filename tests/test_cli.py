@@ -153,6 +153,13 @@ def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, caps
     for flag in ("--threads", "--chunk"):  # refused before anything is timed
         assert f"{flag} 0" in _one_error(["bench", "--quick", flag, "0", "--json",
                                           str(tmp_path / "b.json")], capsys)
+    reference = ["--quick", "--backends", "numpy-reference"]
+    for extra, said in (([*reference, "--reference-particles", "0"], ">= 1"),
+                        (["--quick", "--numpy-particles", "-1"], ">= 1"),  # were timed: 0 poses/s
+                        (["--quick", "--backends", ","], "--backends names no value"),  # 0 records
+                        (["--widths", ",", "--track-widths", ","], "--widths names no value"),
+                        (["--cameras", "9", "--track-widths", ","], "--cameras 9: the data set has 4")):
+        assert said in _one_error(["bench", *extra, "--json", str(tmp_path / "b.json")], capsys)
     assert not (tmp_path / "b.json").exists()
     assert "--fps 0" in _one_error(["render", str(tmp_path), "--out", str(tmp_path / "v.mp4"),
                                     "--fps", "0"], capsys)
@@ -186,6 +193,16 @@ def test_init_dataset_and_compare_check_their_values_before_any_work(tmp_path, c
     assert "--peer-seconds -1.0 needs --peer" in _one_error(
         ["compare", str(tmp_path), "--budget", "100", "--out", str(tmp_path / "cmp"),
          "--peer-seconds", "-1"], capsys)
+    from ipf_jax.body import default_shape
+    from ipf_jax.viz import synthetic as syn
+
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75)
+    walk = syn.write_dataset(tmp_path / "walk", cams, syn.render_masks(
+        syn.procedural_walk(2, shape=default_shape(1.75)), default_shape(1.75), cams))
+    compare = ["compare", str(walk), "--budget", "100", "--out", str(tmp_path / "cmp")]
+    assert "--peer-shape s.txt needs --peer" in _one_error([*compare, "--peer-shape", "s.txt"], capsys)
+    assert "nope.txt: bodytrack poses file not found" in _one_error([*compare, "--peer", "nope.txt"], capsys)
+    assert not (tmp_path / "cmp").exists()
 
 
 def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
@@ -200,6 +217,38 @@ def test_export_of_a_run_without_a_tracked_frame_is_refused(tmp_path, capsys):
         line = _one_error(["export", str(run), "--format", fmt, "--out", str(tmp_path / f"x.{fmt}")], capsys)
         assert "no tracked frame to export" in line
         assert not (tmp_path / f"x.{fmt}").exists()
+
+
+
+def test_export_never_overwrites_the_run_it_reads(tmp_path, capsys):
+    """--out RUN/joints.csv replaced the run's own joints with the export (mm columns, other axes);
+    --out a folder left a stray FILE.tmp."""
+    from ipf_jax.data.runfiles import JOINT_COLUMNS
+
+    run = tmp_path / "run"
+    run.mkdir()
+    row = ",".join(["0.5"] * (len(JOINT_COLUMNS) - 2))
+    joints = ",".join(JOINT_COLUMNS) + "\n" + f"0,0.0,{row}\n1,0.05,{row}\n"
+    (run / "joints.csv").write_text(joints)
+    (run / "run.json").write_text('{"fps": 20.0, "up_axis": "+z"}')
+    for name in ("joints.csv", "run.json"):
+        line = _one_error(["export", str(run), "--format", "csv", "--units", "mm", "--out", str(run / name)],
+                          capsys)
+        assert f"{name}: is one of the run's own files" in line
+    assert (run / "joints.csv").read_text() == joints
+    assert "is a folder" in _one_error(["export", str(run), "--format", "csv", "--out", str(run)], capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    from ipf_jax.cli import main
+
+    assert "--format csv but the file is named .trc" in _one_error(  # wrote CSV text into x.trc
+        ["export", str(run), "--format", "csv", "--out", str(tmp_path / "x.trc")], capsys)
+    assert main(["export", str(run), "--format", "csv", "--out", str(run / "export.csv")]) == 0
+    from ipf_jax.data.runfiles import write_rows
+    from ipf_jax.errors import IPFError
+
+    with pytest.raises(IPFError, match="cannot write"):  # the writer itself leaves no FILE.tmp either
+        write_rows(run, ["frame", "time_s", "a"], [0], [0.0], [[1.0]])
+    assert not (tmp_path / "run.tmp").exists()
 
 
 def test_usage_errors_are_one_line_too(capsys):

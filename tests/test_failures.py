@@ -11,6 +11,7 @@ import json
 import os
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import cv2
@@ -210,9 +211,16 @@ CASES = {
         r"interval width must be > 0 degrees", None),
     "negative_interval_width": (
         lambda ds: ["--filter", "ipf", "--interval-width", "-5"], "--interval-width -5.0",
-        r"interval width must be > 0 degrees \(got -5\.0\)", None),
+        r"interval width must be > 0 degrees and finite \(got -5\.0\)", None),
     "negative_noise": (
         lambda ds: ["--noise-scale", "-1"], "--noise-scale -1.0", r"noise scale must be >= 0", None),
+    "infinite_noise": (  # used to fail on frame 1 with NumPy warnings and "rerun with --resume"
+        lambda ds: ["--filter", "sir", "--particles", "50", "--noise-scale", "inf", "--"],
+        "--noise-scale inf",
+        r"noise scale must be >= 0 and finite \(got inf\)", None),
+    "infinite_max_speed": (
+        lambda ds: ["--filter", "ipf", "--max-speed", "inf"], "--max-speed inf",
+        r"max angular speed must be > 0 and finite \(got inf\)", None),
     "zero_apf_layers": (
         lambda ds: ["--filter", "apf", "--layers", "0", "--"], "--layers 0",
         r"at least one layer \(got 0\)", None),
@@ -228,6 +236,11 @@ CASES = {
     "seed_beyond_32_bits": (
         lambda ds: ["--seed", "99999999999999999999"], "--seed 99999999999999999999",
         r"must be 0\.\.4294967295", None),
+    "huge_particle_count": (  # 10^10 SIR particles waited for ever (SIGTERM too) on an allocation
+        lambda ds: ["--filter", "sir", "--particles", "10000000000", "--"], "--particles 10000000000",
+        r"sir would make 10000000000 likelihood evaluations per frame, more than 1000000", None),
+    "huge_chunk": (  # was an internal error: a chunk is padded to its size (231 GB)
+        lambda ds: ["--chunk", "1000000000"], "--chunk 1000000000", r"must be 1\.\.65536", None),
     "infinite_speed_scale": (
         lambda ds: ["--speed-scale", "inf"], "--speed-scale inf", r"must be > 0 and finite", None),
     "initial_pose_off_every_camera": (
@@ -400,6 +413,13 @@ def test_tracking_into_a_previous_run_says_it_replaces_it(base, tmp_path, capsys
     code, lines = run_cli(argv, capsys)
     assert code == 0 and len(lines) == 1, lines
     assert lines[0].startswith("warning: ") and "holds a previous run (run.json, checkpoint.npz)" in lines[0]
+    before = (out / "run.json").read_text()
+    for bad in (["--init-pose", str(base / "no_such_pose.csv")], ["--frames", "50:60"]):
+        with warnings.catch_warnings():  # as in a new process: the warning not shown once only
+            warnings.simplefilter("always")
+            code, lines = run_cli([*argv, *bad], capsys)  # refused before the run: no "replaced" line
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), lines
+    assert (out / "run.json").read_text() == before
 
 
 def test_masks_that_are_all_foreground_are_skipped_like_empty_ones(base, tmp_path, capsys):
@@ -424,3 +444,14 @@ def test_masks_that_are_all_foreground_are_skipped_like_empty_ones(base, tmp_pat
     code, lines = run_cli(["track", str(ds), *COMMON, *FILTER, "--out", str(out)], capsys)
     assert code == 2 and len(lines) == 1 and "nearly all foreground on every frame" in lines[0], lines
     assert json.loads((out / "run.json").read_text())["frames"]["missing"] == N_FRAMES
+
+
+def test_an_up_axis_the_cameras_contradict_is_a_warning(base, tmp_path, capsys):
+    """--up -z on a +z world tracked the body upside down, silently on a short run."""
+    argv = ["track", str(base), *COMMON, *FILTER, "--init-pose", str(base / "init.csv"), "--frames", "0:2"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        _, lines = run_cli([*argv, "--up=-z", "--out", str(tmp_path / "wrong")], capsys)
+        said = "warning: up axis -z given, but the cameras show +z as up"
+        assert any(line.startswith(said) for line in lines), lines
+        assert run_cli([*argv, "--up=+z", "--out", str(tmp_path / "right")], capsys) == (0, [])

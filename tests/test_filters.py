@@ -178,7 +178,17 @@ def test_explicit_parameters_win_over_the_budget():
     ("apf", {"survival": 1.5}, None, "survival fraction"),
     ("apf", {"layers": 0}, None, "at least one layer"),
     ("sir", {"noise_scale": -1.0}, None, "noise scale"),
+    ("sir", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("apf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("fipf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("fipf", {"speed_scale": float("inf")}, None, "speed scale must be > 0 and finite"),
+    ("ipf", {"noise_scale": float("inf")}, None, "noise scale must be >= 0 and finite"),
+    ("ipf", {"max_speed_deg_s": float("inf")}, None, "max angular speed must be > 0 and finite"),
+    ("ipf", {"interval_width_deg": float("inf")}, None, "interval width must be > 0 degrees and finite"),
     ("sir", {"particles": 0}, None, "at least one particle"),
+    ("sir", {"particles": 10 ** 10}, None, "10000000000 likelihood evaluations per frame, more than 1000000"),
+    ("ipf", {"points_per_dof": 50, "top_m": 2}, None, "12500000 likelihood evaluations per frame"),
+    ("apf", {"particles": 10, "layers": 10 ** 6}, None, "more than 1000000"),
 ])
 def test_impossible_settings_are_one_clear_error(name, options, budget, problem):
     with pytest.raises(IPFError, match=problem):

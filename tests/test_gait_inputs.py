@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from ipf_jax.analysis.gait import analyse, load
 from ipf_jax.analysis.gait.io import write_joints_csv
 from ipf_jax.analysis.gait.markers import read_trc
 from ipf_jax.analysis.gait.synthetic import synthetic_walk
-from ipf_jax.errors import IPFError
+from ipf_jax.errors import IPFError, IPFWarning
 
 #: synthetic marker names for the roles (what a lab would call them)
 MARKERS = {"sacrum": "SACR", "left_heel": "LHEE", "right_heel": "RHEE", "left_toe": "LTOE",
@@ -74,6 +75,19 @@ def test_marker_lists_are_averaged_and_units_override(tmp_path, walk):
     assert any("sacrum = mean of LANK, RANK" in n for n in back.notes)
     scaled = load(trc, marker_map=tmp_path / "map.json", units="mm")
     np.testing.assert_allclose(scaled.points["sacrum"], mid / 1000.0, atol=1e-9)
+
+
+def test_units_the_body_contradicts_are_a_warning(tmp_path, walk):
+    """--units mm on a file in metres scaled the walk 1000x down silently (speeds 1000x off)."""
+    traj, _ = walk
+    trc = write_trc(traj, tmp_path / "walk.trc", units="m")
+    roles = write_map(tmp_path / "map.json", dict(MARKERS))
+    said = r"walk.trc: --units mm puts the pelvis 0.000\d+ m above the feet \(m would make it 0.\d\d m\)"
+    with pytest.warns(IPFWarning, match=said):
+        load(trc, marker_map=roles, units="mm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load(trc, marker_map=roles, units="m")
 
 
 def test_trc_reader_keeps_empty_cells_as_nan(tmp_path, walk):

@@ -170,3 +170,40 @@ def test_init_dataset_refuses_a_background_of_another_size(tmp_path, capsys):
     cv2.imwrite(str(tmp_path / "bg.png"), np.zeros((30, 40, 3), np.uint8))
     assert main(["init-dataset", str(tmp_path / "cam1"), "--calibration", str(tmp_path / "c.json"),
                  "--background", str(tmp_path / "bg.png"), "--out", str(tmp_path / "d")]) == 0
+
+
+
+def test_init_dataset_refuses_one_input_for_two_cameras_and_a_background_for_masks(tmp_path, capsys):
+    """The same folder twice made a dataset whose two cameras saw one view (tracked silently);
+    --background with --masks wrote a dataset.json that track refused."""
+    import cv2
+
+    from ipf_jax.data.calibration import write_json
+
+    for name in ("FG1", "FG2"):
+        (tmp_path / name).mkdir()
+        for k in range(3):
+            cv2.imwrite(str(tmp_path / name / f"image{k:04d}.png"), np.zeros((30, 40), np.uint8))
+    write_json(syn.ring_cameras(2, width=40, height=30, focal_px=40), tmp_path / "c.json")
+    init = ["init-dataset", "--calibration", str(tmp_path / "c.json"), "--masks",
+            "--out", str(tmp_path / "d")]
+    err = _one_error([*init, str(tmp_path / "FG1"), str(tmp_path / "FG2" / ".." / "FG1")], capsys)
+    assert "FG1: given for two cameras" in err
+    backgrounds = [str(tmp_path / f"FG{k}" / "image0000.png") for k in (1, 2)]
+    err = _one_error([*init, str(tmp_path / "FG1"), str(tmp_path / "FG2"), "--background", *backgrounds],
+                     capsys)
+    assert "--background applies to camera images or videos: masks need none" in err
+    assert not (tmp_path / "d" / "dataset.json").exists()
+    assert main([*init, str(tmp_path / "FG1"), str(tmp_path / "FG2")]) == 0
+
+
+def test_a_camera_list_naming_no_camera_is_refused():
+    """render --cameras ',' and fix-single --camera ',' were internal errors (an empty selection)."""
+    from ipf_jax.data.dataset import pick_cameras
+
+    cams = syn.ring_cameras(2, width=80, height=60, focal_px=75)
+    for text in (",", " ", " , "):
+        said = r"--cameras '.*' names no camera \(cameras: Camera1, Camera2, or 1..2\)"
+        with pytest.raises(IPFError, match=said):
+            pick_cameras(cams, text, "--cameras")
+    assert pick_cameras(cams, "2, Camera1", "--cameras") == [1, 0] and pick_cameras(cams, None) == [0, 1]

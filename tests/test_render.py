@@ -137,6 +137,15 @@ def test_render_mistakes(scene, tmp_path, capsys, extra, message):
     assert err.startswith("error: ") and message in err and "\n" not in err
 
 
+def test_render_refuses_media_it_cannot_write(scene, tmp_path, capsys):
+    """--out walk.gif made a folder of PNGs named walk.gif and exited 0."""
+    out = tmp_path / "walk.gif"
+    assert main(["render", str(scene["run"]), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "cannot write .gif files: give a .mp4" in err and "\n" not in err
+    assert not out.exists()
+
+
 def test_render_refuses_a_damaged_run_json(scene, tmp_path, capsys):
     run = tmp_path / "run"
     shutil.copytree(scene["run"], run)

@@ -330,6 +330,17 @@ def test_fix_single_refuses_to_overwrite_the_run(walk, tmp_path, capsys):
     assert "write the corrected run to another folder" in capsys.readouterr().err
     assert main(["fix-single", str(run_dir), "--out", str(tmp_path / "o")]) == 2
     assert "give --dataset (or --keep-depth)" in capsys.readouterr().err
+    other = write_run_dir(tmp_path / "other", walk[0][10:20], shape=SHAPE, fps=FPS)  # another run
+    before = {p.name: p.read_bytes() for p in other.iterdir()}
+    assert main(["fix-single", str(run_dir), "--out", str(other), "--keep-depth"]) == 2
+    assert "other: holds a tracked run (run.json)" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in other.iterdir()} == before
+    fixed = tmp_path / "fixed"  # an earlier fix-single output is replaced
+    assert main(["fix-single", str(run_dir), "--out", str(fixed), "--keep-depth"]) == 0
+    assert main(["fix-single", str(run_dir), "--out", str(fixed), "--keep-depth"]) == 0
+    for flag in ("--min-gain", "--meeting"):  # inf silently turned the correction off
+        assert main(["fix-single", str(run_dir), "--out", str(fixed), "--keep-depth", flag, "inf"]) == 2
+        assert f"{flag} must be" in capsys.readouterr().err
 
 
 def test_fix_single_takes_the_camera_from_the_dataset(walk_masks, tmp_path, capsys):

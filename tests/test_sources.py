@@ -3,6 +3,7 @@ region of interest, frame ranges, camera placement options, and one clear error 
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import cv2
@@ -220,7 +221,9 @@ BAD = [
     ({**base_doc(masks="../masks"), "camera_height": "from_person"}, "needs 'height_m'"),
     ({**base_doc(masks="../masks"), "camera_height": -1, "up_axis": "+z"}, "camera_height"),
     ({**base_doc(masks="../masks"), "fps": -3}, "'fps' must be a positive number"),
-    ({**base_doc(masks="../masks"), "fps": 0}, "'fps' must be a positive number, got 0"),
+    ({**base_doc(masks="../masks"), "fps": 0}, "'fps' must be a positive number up to 10000 Hz .*, got 0"),
+    # tracked with every time_s 0.000000 (6 decimals): eval and gait then refused the run
+    ({**base_doc(masks="../masks"), "fps": 1e9}, "'fps' must be a positive number up to 10000 Hz"),
     ({"calibration": "../cameras.json", "cameras": [{"masks": "../masks", "name": "cam1"},
                                                     {"masks": "../masks", "name": "cam1"}]},
      r"names camera\(s\) cam1 more than once"),
@@ -237,6 +240,19 @@ def test_mistakes_raise_one_clear_error(scene, k):
     folder = write_doc(folder, doc)
     with pytest.raises(IPFError, match=message):
         open_dataset(folder)
+
+
+def test_one_recording_for_two_cameras_is_an_error(scene, tmp_path):
+    """It tracked silently, as if two cameras saw the same view."""
+    write_json([camera(name="cam1"), camera(name="cam2")], tmp_path / "two.json")
+    masks = str(scene / "masks")
+    doc = {"calibration": "two.json", "cameras": [{"masks": masks, "name": "cam1"},
+                                                  {"masks": masks + "/", "name": "cam2"}]}
+    with pytest.raises(IPFError, match=r"camera 2 reads the masks .* of camera 1: each camera needs its own"):
+        open_dataset(write_doc(tmp_path, doc))
+    doc["cameras"][1]["masks"] = str(tmp_path / "other")  # a folder of its own: accepted
+    shutil.copytree(masks, tmp_path / "other")
+    assert len(open_dataset(write_doc(tmp_path, doc)).cameras) == 2
 
 
 def test_background_of_another_size_is_an_error(scene, tmp_path):

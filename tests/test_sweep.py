@@ -121,6 +121,13 @@ def test_cli_config_error_is_one_line_and_runs_nothing(scene, tmp_path, capsys):
     assert "--address joins a Ray cluster" in capsys.readouterr().err
 
 
+def test_ray_without_cpus_is_refused_before_it_starts():
+    """--num-cpus 0 started a local Ray whose cells never ran: the sweep hung."""
+    for n in (0, -2):
+        with pytest.raises(IPFError, match=rf"--num-cpus must be >= 1 \(got {n}\)"):
+            backends.make_backend("ray", None, n)
+
+
 def test_ray_backend_without_ray_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)  # as if the extra were not installed
     with pytest.raises(IPFError, match=r"pip install 'ipf-jax\[ray\]'"):

@@ -79,6 +79,7 @@ def load_peer(path: str | Path, dataset: Dataset, shape_file: str | Path | None 
     from .bodytrack import peer_joints
 
     path = Path(path)
+    require(path.is_file(), "bodytrack poses file not found", path)  # said before its shape's absence
     if shape_file is None:
         shape_file = Path(dataset.path) / "BodyShapeParameters.txt"
         require(shape_file.is_file(), "bodytrack poses need the body shape: no "

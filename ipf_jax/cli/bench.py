@@ -105,8 +105,17 @@ def run(args) -> int:
                                      for v in args.start_sets.split(",") if v.strip()]
     require(args.start_frames >= 2, f"--start-frames must be >= 2 (got {args.start_frames})")
     require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
-    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1,
+    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1
+            and args.numpy_particles >= 1 and args.reference_particles >= 1,
             "cameras, particles and repeats must be >= 1")
+    empty = [f"--{k}" for k, v in (("widths", widths), ("cameras", cams), ("particles", counts),
+                                   ("backends", backends)) if not v]
+    require(not empty, f"{', '.join(empty)} names no value: nothing would be measured")
+    from ..data.dataset import open_dataset
+
+    have = len(open_dataset(data).cameras)  # before the first record, not in its middle
+    require(args.quick or max(cams) <= have, f"--cameras {args.cameras}: the data set has {have} cameras",
+            data)
     for key in ("chunk", "threads"):  # the tracking options' own rules, before any work
         if getattr(args, key) is not None:
             check_value(key, getattr(args, key), flag(key))

@@ -24,6 +24,7 @@ def _pairs(values, flag: str) -> list[tuple[str, str]]:
     for v in values or []:
         name, sep, src = v.partition("=")
         require(bool(sep and name and src), f"{flag} must be NAME=SOURCE, got {v!r}")
+        require(name not in dict(out), f"{flag} {name} given twice (one {flag} per camera)")
         out.append((name, src))
     return out
 

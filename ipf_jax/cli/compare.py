@@ -62,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
     require(args.peer_seconds is None or (args.peer and math.isfinite(args.peer_seconds)
                                           and args.peer_seconds > 0),
             f"--peer-seconds {args.peer_seconds} needs --peer and must be > 0 seconds per frame")
+    require(args.peer_shape is None or args.peer, f"--peer-shape {args.peer_shape} needs --peer (the "
+            "bodytrack poses it gives the body of)")
     ds = open_dataset(args.dataset)
     frames = select_frames(ds.frames, values.get("frames"), where=flag("frames"))
     refs = ([load_truth(args.truth)] if args.truth else []) + (

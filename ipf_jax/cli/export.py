@@ -17,6 +17,7 @@ from ..analysis.export.c3d import export_c3d
 from ..analysis.export.joints_csv import export_csv
 from ..analysis.export.trc import export_trc
 from ..data.rundir import read_run
+from ..data.runfiles import check_output_file
 from ..errors import IPFError, require
 from ..geometry.world import AXES
 
@@ -28,6 +29,9 @@ EXPORTERS = {
     "csv": (export_csv, None, "m"),
 }
 from .options import add_common, add_option
+
+#: what ``track`` writes in a run folder: never overwritten by an export
+RUN_FILES = ("joints.csv", "poses.csv", "run.json", "shape.json", "checkpoint.npz", "joints_smoothed.csv")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -59,8 +63,14 @@ def run(args: argparse.Namespace) -> int:
         if fmt not in EXPORTERS:
             raise IPFError(f"cannot tell the format from the suffix {out.suffix!r}; use --format "
                            f"({', '.join(EXPORTERS)})", out)
+        named = out.suffix.lower().lstrip(".")
+        require(named not in EXPORTERS or named == fmt, f"--format {fmt} but the file is named "
+                f".{named}: a {fmt} file under another format's name (rename it or drop --format)", out)
         export, up, units = EXPORTERS[fmt]
+        out = check_output_file(out)  # a folder or an unwritable place: said before any work
         run_data = read_run(args.run_dir)
+        require(not (out.name in RUN_FILES and out.resolve().parent == run_data.path.resolve()),
+                "is one of the run's own files: export to another name (the run is kept as it is)", out)
         require(bool(np.isfinite(run_data.joints).all(axis=(1, 2)).any()),
                 "no tracked frame to export (every frame of the run is missing or lost)", args.run_dir)
         if args.smooth:

@@ -71,8 +71,8 @@ def _run_camera(args) -> Camera:
 
 
 def run(args: argparse.Namespace) -> int:
-    require(args.min_gain > 0, f"--min-gain must be > 0 (got {args.min_gain})")
-    require(args.meeting >= 0, f"--meeting must be >= 0 (got {args.meeting})")
+    require(0 < args.min_gain < np.inf, f"--min-gain must be > 0 and finite (got {args.min_gain})")
+    require(0 <= args.meeting < np.inf, f"--meeting must be >= 0 and finite (got {args.meeting})")
     camera = None if args.keep_depth else _run_camera(args)
     rec = fix_single_camera(args.run_dir, args.out, legs=not args.keep_legs, camera=camera,
                             min_gain_m=args.min_gain, meeting_m=args.meeting or None)

@@ -41,13 +41,14 @@ def run(args) -> int:
     from ..viz.overlay import overlay_writer
 
     values = check_args(args)
+    ds = open_dataset(args.dataset)
+    frames = select_frames(ds.frames, values.get("frames"), where=flag("frames"))
+    settings = settings_from_args(args, values)
+    # said once the inputs are read: a bad one is then the only line, and the run stays as it was
     previous = [n for n in ("run.json", "checkpoint.npz") if (Path(args.out) / n).exists()]
     if previous and not args.resume:
         warnings.warn(f"{args.out} holds a previous run ({', '.join(previous)}): its files are "
                       "replaced (--resume continues it instead)", IPFWarning, stacklevel=1)
-    ds = open_dataset(args.dataset)
-    frames = select_frames(ds.frames, values.get("frames"), where=flag("frames"))
-    settings = settings_from_args(args, values)
     # the process's objects so far (JAX, NumPy, OpenCV: most of its millions) outlive the run:
     # frozen while it runs, the collector's full passes do not walk them (one such pass cost
     # 100-300 ms in the middle of a tracked frame, about one per 12-40 frames); unfrozen after,

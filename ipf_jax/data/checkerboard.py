@@ -76,7 +76,7 @@ def parse_board(text: str, square: float, *, charuco: bool = False, marker: floa
     except ValueError:
         raise IPFError(f"--board must look like COLSxROWS (e.g. 9x6), got {text!r}") from None
     require(2 <= cols <= 100 and 2 <= rows <= 100, f"--board {text}: 2..100 corners a side")
-    require(square > 0, f"--square must be positive, got {square:g}")
+    require(0 < square < np.inf, f"--square must be positive and finite, got {square:g}")
     if charuco:
         require(hasattr(cv2.aruco, dictionary), f"unknown ArUco dictionary {dictionary!r}")
         require(marker is None or 0 < marker < square,

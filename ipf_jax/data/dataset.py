@@ -117,6 +117,9 @@ def open_bodytrack(path: Path) -> Dataset:
     return Dataset(path, cams, sources, layout="bodytrack")
 
 
+MAX_FPS = 10000  # as --fps: beyond, 6-decimal time_s values no longer increase
+
+
 def open_dataset(path: str | Path) -> Dataset:
     """Open a dataset folder (layout detected); raises IPFError with the folder and the problem."""
     path = Path(path)
@@ -155,8 +158,9 @@ def open_described(path: Path) -> Dataset:
     if fps is None:
         fps = next((s.fps for s in sources if getattr(s, "fps", None)), None)
     require(fps is None or (isinstance(fps, (int, float)) and not isinstance(fps, bool)
-                            and np.isfinite(fps) and fps > 0),
-            f"'fps' must be a positive number, got {fps!r}", doc_path)
+                            and np.isfinite(fps) and 0 < fps <= MAX_FPS),
+            f"'fps' must be a positive number up to {MAX_FPS} Hz (time_s keeps 6 decimals), "
+            f"got {fps!r}", doc_path)
     height = doc.get("height_m")
     require(height is None or (isinstance(height, (int, float)) and not isinstance(height, bool)
                                and np.isfinite(height) and 0.5 <= height <= 2.6),
@@ -202,4 +206,6 @@ def pick_cameras(cameras, text: str | None, option: str = "cameras") -> list[int
         else:
             raise IPFError(f"{option}: no camera {item!r} (cameras: {', '.join(names)}, or 1.."
                            f"{len(cameras)})")
+    require(bool(out), f"{option} {text!r} names no camera (cameras: {', '.join(names)}, or 1.."
+            f"{len(cameras)})")
     return out

@@ -119,6 +119,11 @@ def describe(inputs: list[Path], calibration: Path, out: Path, *, names: list[st
              fps: float | None = None, up_axis: str | None = None) -> tuple[dict, list[str]]:
     """The dataset.json document and the lines of a summary (see module doc)."""
     inputs = expand_inputs([Path(p) for p in inputs])
+    seen = [p.resolve() for p in inputs]
+    twice = next((p for k, p in enumerate(inputs) if seen[k] in seen[:k]), None)
+    require(twice is None, "given for two cameras: each camera needs its own recording", twice)
+    require(not (masks and backgrounds), "--background applies to camera images or videos: masks "
+            "need none (drop --background or --masks)")
     opened = [_open(p, masks) for p in inputs]
     readers = [r for r, _, _ in opened]
     w0, h0 = readers[0].width, readers[0].height

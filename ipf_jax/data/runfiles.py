@@ -43,6 +43,7 @@ def write_rows(path: str | Path, columns: list[str], frames, time_s, values,
         tmp.write_text(text)
         os.replace(tmp, path)
     except OSError as e:
+        tmp.unlink(missing_ok=True)  # no stray FILE.tmp beside a file that could not be written
         raise IPFError(f"cannot write ({e.strerror or e})", path) from None
 
 

@@ -347,6 +347,18 @@ def make_source(entry: dict, root: Path, where: str, doc_path: Path, seg_default
                              seg=Segmentation(**seg)), seg
 
 
+def _one_recording_each(entries: list[dict], root: Path, doc_path: Path) -> None:
+    """Two entries reading one recording (a video, or a folder with one file prefix) would be one
+    view counted as two cameras: refused."""
+    seen: dict = {}
+    for k, entry in enumerate(entries, start=1):
+        kind = next(key for key in ("masks", "images", "video") if key in entry)
+        key = (resolve(root, entry[kind], kind, doc_path).resolve(), entry.get("prefix"))
+        require(key not in seen, f"camera {k} reads the {kind} {entry[kind]!r} of camera {seen.get(key)}: "
+                "each camera needs its own recording", doc_path)
+        seen[key] = k
+
+
 def _pair_cameras(cams: list[Camera], entries: list[dict], calib: Path) -> list[Camera]:
     """Cameras in the order of the entries: by ``name`` when every entry has one, else by order."""
     names = [e.get("name") for e in entries if isinstance(e, dict)]
@@ -415,6 +427,7 @@ def build_sources(path: Path, doc: dict) -> tuple[list[Camera], list]:
     units = doc.get("calibration_units")
     w, h = sources[0].size
     cams = _pair_cameras(read_calibration(calib, w, h, units=units), entries, calib)
+    _one_recording_each(entries, path, doc_path)
     crops = [e.get("crop", doc.get("crop")) for e in entries]
     cams = [_fit_to_frames(c, s.size, f"camera {k}", calib, crop, doc_path)
             for k, (c, s, crop) in enumerate(zip(cams, sources, crops), start=1)]

@@ -54,7 +54,8 @@ def validate(settings: APFSettings) -> None:
     require(settings.particles >= 1, f"APF needs at least one particle (got {settings.particles})")
     require(settings.layers >= 1, f"APF needs at least one layer (got {settings.layers})")
     require(0 < settings.survival < 1, f"survival fraction must be in (0, 1) (got {settings.survival})")
-    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
+    require(0 <= settings.noise_scale < np.inf,
+            f"noise scale must be >= 0 and finite (got {settings.noise_scale})")
     if settings.noise_decay is not None:
         require(0 < settings.noise_decay <= 1,
                 f"noise decay per layer must be in (0, 1] (got {settings.noise_decay})")

@@ -166,8 +166,10 @@ def validate(settings: FIPFSettings) -> None:
     require(settings.points_per_dof >= 1, f"points per DOF must be >= 1 (got {settings.points_per_dof})")
     require(settings.rounds >= 1, f"rounds must be >= 1 (got {settings.rounds})")
     require(0 < settings.shrink <= 1, f"shrink must be in (0, 1] (got {settings.shrink})")
-    require(settings.speed_scale > 0, f"speed scale must be > 0 (got {settings.speed_scale})")
-    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
+    require(0 < settings.speed_scale < np.inf,
+            f"speed scale must be > 0 and finite (got {settings.speed_scale})")
+    require(0 <= settings.noise_scale < np.inf,
+            f"noise scale must be >= 0 and finite (got {settings.noise_scale})")
     require(settings.filler >= 0, f"filler must be >= 0 (got {settings.filler})")
     require(settings.polish >= 0, f"polish sweeps must be >= 0 (got {settings.polish})")
     require(settings.polish_keep >= 1, f"polish keep must be >= 1 (got {settings.polish_keep})")

@@ -57,11 +57,13 @@ def validate(settings: IPFSettings) -> None:
     unknown = [d for d in settings.interesting if d not in DOF_INDEX]
     require(not unknown, f"unknown DOF in L: {', '.join(unknown)}")
     require(len(set(settings.interesting)) == len(settings.interesting), "L lists a DOF twice")
-    require(settings.max_speed_deg_s > 0, f"max angular speed must be > 0 (got {settings.max_speed_deg_s})")
+    require(0 < settings.max_speed_deg_s < np.inf,
+            f"max angular speed must be > 0 and finite (got {settings.max_speed_deg_s})")
     if settings.interval_width_deg is not None:
-        require(settings.interval_width_deg > 0,
-                f"interval width must be > 0 degrees (got {settings.interval_width_deg})")
-    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
+        require(0 < settings.interval_width_deg < np.inf,
+                f"interval width must be > 0 degrees and finite (got {settings.interval_width_deg})")
+    require(0 <= settings.noise_scale < np.inf,
+            f"noise scale must be >= 0 and finite (got {settings.noise_scale})")
 
 
 def interval_grid(settings: IPFSettings, fps: float) -> np.ndarray:

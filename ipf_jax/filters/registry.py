@@ -36,6 +36,9 @@ NAMES = ("ipf", "fipf", "apf", "sir")
 #: The filter a run uses unless told: chosen by measurement over every visible walk (docs/fipf.md).
 DEFAULT = "fipf"
 _MODULES = {"ipf": ipf, "fipf": fipf, "apf": apf, "sir": sir}
+#: Likelihood evaluations per frame beyond which a setting is refused: 50x the largest budget in
+#: use (20000); 10^10 SIR particles waited for ever on an allocation that could not be made.
+MAX_EVALUATIONS = 1_000_000
 SETTINGS = {"ipf": ipf.IPFSettings, "fipf": fipf.FIPFSettings, "apf": apf.APFSettings,
             "sir": sir.SIRSettings}
 
@@ -90,6 +93,8 @@ def resolve(name: str, options: dict, fps: float, budget: int | None = None,
         settings = {"ipf": _ipf_settings, "apf": _apf_settings, "sir": _sir_settings}[name](options, budget)
     _MODULES[name].validate(settings)
     need = evaluations(name, settings)
+    require(need <= MAX_EVALUATIONS, f"{name} would make {need} likelihood evaluations per frame, "
+            f"more than {MAX_EVALUATIONS} (minutes a frame, gigabytes of particles)")
     if budget is not None and need > budget:
         raise IPFError(f"{name} with {', '.join(f'{k}={v}' for k, v in options.items())} needs "
                        f"{need} evaluations per frame, over the budget of {budget}")

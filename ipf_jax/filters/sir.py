@@ -38,7 +38,8 @@ class SIRSettings(NamedTuple):
 
 def validate(settings: SIRSettings) -> None:
     require(settings.particles >= 1, f"SIR needs at least one particle (got {settings.particles})")
-    require(settings.noise_scale >= 0, f"noise scale must be >= 0 (got {settings.noise_scale})")
+    require(0 <= settings.noise_scale < np.inf,
+            f"noise scale must be >= 0 and finite (got {settings.noise_scale})")
 
 
 def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:

@@ -113,6 +113,8 @@ class RayBackend:
 def make_backend(name: str, address: str | None = None, num_cpus: int | None = None):
     """``local`` or ``ray``; an address or CPU count only makes sense for ``ray``."""
     require(name in BACKENDS, f"unknown backend {name!r} (choose {', '.join(BACKENDS)})")
+    require(num_cpus is None or num_cpus >= 1, f"--num-cpus must be >= 1 (got {num_cpus}): a Ray "
+            "without CPUs runs no cell and waits for ever")
     if name == "local":
         require(address is None, "--address joins a Ray cluster: use it with --backend ray")
         require(num_cpus is None, "--num-cpus sizes a local Ray: use it with --backend ray")

@@ -73,6 +73,11 @@ def _within(lo, hi, unit=""):
     return check
 
 
+#: a chunk is padded to its full size: 2^16 particles are far beyond any filter's call, and a chunk
+#: of 10^9 asked for hundreds of GB
+MAX_CHUNK = 1 << 16
+
+
 def _lean_sigma(v):
     require(v == 0 or 0.5 <= v <= 90, "must be 0 (off) or 0.5..90 deg")
 
@@ -222,7 +227,7 @@ OPTIONS: tuple[Option, ...] = (
            check=_seed),
     Option("chunk", "--chunk", "int", None, "particles per chunk of a compiled call: memory vs speed, "
            f"never the result (default {DEFAULT_CHUNK}, or what the filter's calls fit better: IPF's "
-           "416, 16 to a call; the factored filter's 216)", check=_at_least(1)),
+           "416, 16 to a call; the factored filter's 216)", check=_within(1, MAX_CHUNK)),
     Option("threads", "--threads", "int", None, "host threads running the compiled programs at "
            "once: speed, never the result (default: the CPU cores this process may use; 1 on a GPU)",
            check=_at_least(1)),

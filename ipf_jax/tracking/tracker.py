@@ -208,8 +208,8 @@ class Tracker:
         fps = settings.fps or dataset.fps or DEFAULT_FPS
         require(np.isfinite(fps) and fps > 0, f"frame rate must be > 0 (got {fps})")
         self.fps = float(fps)
-        up = (settings.up_axis or dataset.up_axis
-              or detect_up_axis(dataset.cameras, [without_full(m) for m in self.read_masks(self.frames[0])]))
+        up = dataset.up_axis if settings.up_axis is None else settings.up_axis
+        up = self._up_axis(up, given=settings.up_axis is not None)
         require(up in AXES, f"unknown up axis {up!r} (choose one of {', '.join(AXES)})")
         self.up_axis = up
         self.U = up_rotation(up)
@@ -295,6 +295,23 @@ class Tracker:
         return f if self.filter_hook is None else self.filter_hook(f)
 
     # -- the stages of a frame ---------------------------------------------------------------
+    def _up_axis(self, up: str | None, given: bool) -> str:
+        """``up`` (a given one checked against the cameras': a warning when they clearly show
+        another), else the detected one."""
+        if up is not None and not given:
+            return up  # the dataset's own
+        masks = [without_full(m) for m in self.read_masks(self.frames[0])]
+        if up is None:
+            return detect_up_axis(self.dataset.cameras, masks)
+        try:
+            seen = detect_up_axis(self.dataset.cameras, masks)
+        except IPFError:
+            return up  # the cameras cannot tell: the given axis stands
+        if seen != up:
+            warnings.warn(f"up axis {up} given, but the cameras show {seen} as up (the body would be "
+                          f"tracked on its side or head): is the up axis {seen}?", IPFWarning, stacklevel=3)
+        return up
+
     def read_masks(self, frame: int) -> list[np.ndarray]:
         with self._read_lock:  # the next frame may be read on another thread (run, .prefetch)
             masks = self.dataset.masks(frame)

@@ -18,6 +18,8 @@ from ..errors import IPFError, require
 
 VIDEO_CODECS = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG"}
 IMAGE_EXT = (".png", ".jpg", ".jpeg")
+#: media it does not write: such a name is a mistake, not a folder to fill with PNGs
+OTHER_MEDIA = (".gif", ".webp", ".bmp", ".tif", ".tiff", ".mkv", ".webm", ".wmv", ".flv", ".mpg", ".mpeg")
 MIN_SIDE, MAX_SIDE = 480, 960  # default view size: the camera's, kept legible and not too large
 
 
@@ -47,6 +49,8 @@ class _Sink:
     def __init__(self, out: Path, fps: float, n_frames: int):
         self.out, self.fps = out, fps
         ext = out.suffix.lower()
+        require(ext not in OTHER_MEDIA, f"cannot write {ext} files: give a {', '.join(VIDEO_CODECS)}, "
+                f"{', '.join(IMAGE_EXT)} file or a folder", out)
         self.kind = "video" if ext in VIDEO_CODECS else "image" if ext in IMAGE_EXT else "folder"
         if self.kind == "image":
             require(n_frames == 1, f"a {ext} output holds one frame, {n_frames} selected: use "

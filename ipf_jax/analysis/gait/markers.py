@@ -17,11 +17,12 @@ only when the body cannot tell, then ``+y`` (the lab and OpenSim convention).
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import IPFError, load_json
+from ...errors import IPFError, IPFWarning, load_json
 from ...geometry.world import axis_vector
 from .c3d import read_c3d
 from .markerdata import MarkerData
@@ -88,6 +89,11 @@ def _unit(points: dict, up: np.ndarray, units: str | None, raw: MarkerData,
     if units:
         if units not in UNIT_SCALE:
             raise IPFError(f"unknown units {units!r} (choose {', '.join(UNIT_SCALE)})", path)
+        guess = None if height is None else infer_unit(height, UNIT_SCALE)
+        if guess not in (None, units):  # like --up: said, the given unit kept
+            warnings.warn(IPFWarning(
+                f"{path.name}: --units {units} puts the pelvis {height * UNIT_SCALE[units]:.3g} m above "
+                f"the feet ({guess} would make it {height * UNIT_SCALE[guess]:.2f} m): is the unit {guess}?"))
         return units, f"units {units} from --units"
     if raw.units:
         if height is not None and not (PELVIS_HEIGHT_M[0] <= height * UNIT_SCALE[raw.units]

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...data.rundir import joints_from_poses, read_run
 from ...data.runfiles import JOINT_COLUMNS, POSE_COLUMNS, check_writable, write_rows
-from ...errors import require
+from ...errors import load_json, require
 from ...geometry.camera import Camera
 from ...geometry.placement import steady_depth
 from ...geometry.world import axis_vector
@@ -41,6 +41,10 @@ def fix_single_camera(run_dir: str | Path, out_dir: str | Path, *, legs: bool = 
     out = check_writable(Path(out_dir))
     require(out.resolve() != run.path.resolve(), "write the corrected run to another folder "
             "(the tracker's output is kept as it is)", out)
+    kept = out / "run.json"  # another run's folder: its files would be mixed with these
+    doc = load_json(kept, "run.json") if kept.exists() else {"single_camera": None}
+    require(isinstance(doc, dict) and "single_camera" in doc, "holds a tracked run (run.json): write "
+            "the corrected run to a new folder (only an earlier fix-single output is replaced)", out)
     up = axis_vector(run.up_axis)
     joints, poses = run.joints, run.poses
     record: dict = {"source_run": str(run.path), "leg_swaps": None, "steady_depth": None}
