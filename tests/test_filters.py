@@ -598,6 +598,22 @@ def test_beta_search_evaluates_fewer_fractions_than_the_bisection(monkeypatch):
     assert beta == _anneal_beta_by_definition(lk, 0.5)
 
 
+def test_beta_search_probes_both_sides_of_a_point_near_the_root(monkeypatch):
+    """Where regula falsi lands within the margin of the root, one probe each side of it bounds
+    the bisection's bracket tightly: over 50 layers of 4000 silhouette-like likelihoods at most
+    34 evaluations on the mean and 40 at most (without the probes 36.3 and 48), the same betas."""
+    calls, real = [], apf.effective_fraction
+    monkeypatch.setattr(apf, "effective_fraction", lambda w, s=None: calls.append(1) or real(w, s))
+    rng, counts = np.random.default_rng(7), []
+    for _ in range(50):
+        lk = rng.uniform(0.4, 0.8, 4000) ** rng.uniform(1, 4)
+        calls.clear()
+        beta = apf.anneal_beta(lk, 0.5)
+        counts.append(len(calls))
+        assert beta == _anneal_beta_by_definition(lk, 0.5)
+    assert np.mean(counts) <= 34 and max(counts) <= 40
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_beta_search_stopping_at_its_fixed_point_is_the_full_bisection(seed):
     rng = np.random.default_rng(seed)

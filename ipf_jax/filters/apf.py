@@ -139,7 +139,10 @@ def _bracket(fraction, target: float, lo: float, f_lo: float, hi: float, f_hi: f
              steps: int = 16) -> tuple:
     """(a, b), lo <= a < root <= b <= hi: fraction(a) > target and fraction(b) <= target, each by
     :data:`_BRACKET_MARGIN` (in log) unless it is ``lo`` or ``hi`` (the bisection's own ends,
-    which no midpoint reaches). Illinois' regula falsi on log(fraction / target)."""
+    which no midpoint reaches). Illinois' regula falsi on log(fraction / target); a step that
+    lands too near the root to bound it is followed by one probe on each side of it
+    (:func:`_probe_sides`), so that the bisection starts inside a bracket a few margins wide
+    instead of at the last bounds that regula falsi kept."""
     a, b = lo, hi
     g_a, g_b = np.log(f_lo / target), np.log(f_hi / target) if f_hi > 0 else -np.inf
     side = 0
@@ -157,8 +160,30 @@ def _bracket(fraction, target: float, lo: float, f_lo: float, hi: float, f_hi: f
         elif g_x < -_BRACKET_MARGIN:
             b, g_b = x, g_x
             g_a, side = (0.5 * g_a if side < 0 else g_a), -1
-        else:  # too near the root to bound it safely
-            break
+        else:  # too near the root to bound it safely: bound it from both sides of x
+            return _probe_sides(fraction, target, a, g_a, b, g_b, x)
+    return a, b
+
+
+def _probe_sides(fraction, target: float, a: float, g_a: float, b: float, g_b: float,
+                 x: float) -> tuple:
+    """The bracket (a, b) tightened around ``x``, a point within the margin of the root: one
+    evaluation each at ``x -+ d``, ``d`` four margins' worth of beta at the secant's slope, each
+    kept as a bound only where its log fraction clears the margin (the same rule as
+    :func:`_bracket`'s; a probe that does not is one evaluation lost, the bracket as it was)."""
+    slope = abs((g_b - g_a) / (b - a)) if np.isfinite(g_b) and b > a else 0.0
+    if not slope > 0.0:
+        return a, b
+    d = max(4.0 * _BRACKET_MARGIN / slope, 8.0 * np.spacing(x))
+    for p in (x - d, x + d):
+        if not a < p < b:
+            continue
+        f_p = fraction(p)
+        g_p = np.log(f_p / target) if f_p > 0 else -np.inf
+        if g_p > _BRACKET_MARGIN:
+            a = p
+        elif g_p < -_BRACKET_MARGIN:
+            b = p
     return a, b
 
 

@@ -147,9 +147,9 @@ def resample_diffuse(rng_key: jax.Array | None, particles: np.ndarray, weights: 
     u, z = drawn if drawn is not None else resample_draws(rng_key, (num, particles.shape[1]))
     idx = systematic_at(float(u), weights, num)
     # in place on one fresh array: the same numbers as ``clip(particles[idx] + z * std)``, without
-    # the three more N x D temporaries (fresh pages cost more than the arithmetic at this size)
-    out = np.array(z, np.float64)
-    out *= std
+    # the three more N x D temporaries (fresh pages cost more than the arithmetic at this size);
+    # the float32 draws are widened inside the product (exactly, as a float64 copy of them was)
+    out = np.multiply(np.asarray(z), std, dtype=np.float64)
     out += particles[idx]
     return limits.clip(out, copy=False)
 
