@@ -24,7 +24,7 @@ from ipf_jax.data.calibration import (
 from ipf_jax.errors import IPFError
 from ipf_jax.geometry import camera as jcam
 from ipf_jax.geometry import host as ref
-from ipf_jax.geometry.world import detect_up_axis
+from ipf_jax.geometry.world import contradicted_up, detect_up_axis
 from ipf_jax.reference import PIXEL_ATOL
 
 BODYTRACK_CENTRES = np.array([[2.761, 2.547, 2.539], [-2.121, 2.446, 2.578],
@@ -206,6 +206,22 @@ def test_up_axis_undecidable_is_one_error_asking_for_up(shared_data):
                             height=120, focal_px=150)
     with pytest.raises(IPFError, match="give it with --up"):
         detect_up_axis([tilted])
+
+
+def test_a_given_up_axis_is_contradicted_only_by_clear_evidence(shared_data):
+    """--up's check: the other sign only when the cameras stand clearly on the other side of the
+    floor, another axis only when the silhouettes lie along it; the rolled camera 2, which fools
+    detection from its orientation, does not contradict the true +z."""
+    from ipf_jax.data.silhouette import read_mask
+
+    bt = shared_data("parsec_bodytrack/sequenceB_2")
+    cams = read_calibration(bt / "CALIB")
+    masks = [read_mask(bt / f"FG{k}" / "image0000.bmp") for k in (1, 2, 3, 4)]
+    assert contradicted_up(cams, masks, "+z") is None
+    assert contradicted_up(cams, masks, "-z") == "+z"  # upside down: the cameras are above +z
+    assert contradicted_up(cams, masks, "+y") == "+z"  # the standing person lies along z
+    assert contradicted_up(cams[1:2], masks[1:2], "+z") is None  # orientation says y: not clear
+    assert contradicted_up(cams, None, "+x") is None  # no silhouettes: another axis never said
 
 
 # --- projection against OpenCV -------------------------------------------------------------------

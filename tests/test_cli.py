@@ -157,7 +157,9 @@ def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, caps
     for extra, said in (([*reference, "--reference-particles", "0"], ">= 1"),
                         (["--quick", "--numpy-particles", "-1"], ">= 1"),  # were timed: 0 poses/s
                         (["--quick", "--backends", ","], "--backends names no value"),  # 0 records
-                        (["--widths", ",", "--track-widths", ","], "--widths names no value"),
+                        # nothing at all (the start records alone would still be a bench)
+                        (["--widths", ",", "--track-widths", ",", "--start-sets", ","],
+                         "--widths names no value"),
                         (["--cameras", "9", "--track-widths", ","], "--cameras 9: the data set has 4")):
         assert said in _one_error(["bench", *extra, "--json", str(tmp_path / "b.json")], capsys)
     assert not (tmp_path / "b.json").exists()

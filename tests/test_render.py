@@ -115,6 +115,9 @@ def test_render_folder_images_and_one_frame(scene, tmp_path):
     assert main(["render", str(scene["run"]), "--out", str(one), "--frames", "3", "--masks",
                  "--quiet"]) == 0
     assert cv2.imread(str(one)).shape == (360, 960, 3)
+    tif = tmp_path / "one.tif"  # any still format cv2 writes, not a folder named one.tif
+    assert main(["render", str(scene["run"]), "--out", str(tif), "--frames", "3", "--quiet"]) == 0
+    assert tif.is_file() and cv2.imread(str(tif)).shape == (360, 960, 3)
 
 
 def test_track_overlay_writer(scene, tmp_path):

@@ -115,6 +115,22 @@ def test_video_with_temporal_median_background(scene):
     assert image.shape == (H, W, 3) and image.dtype == np.uint8
 
 
+def test_a_video_header_rate_beyond_any_camera_is_taken_as_unknown(scene, monkeypatch):
+    """A header's 90 kHz (a stream's clock, not a frame rate) leaves the rate unknown, so the
+    dataset opens and --fps can give it; only dataset.json's own 'fps' is refused beyond 10 kHz."""
+    from ipf_jax.data import video
+
+    opened = video.VideoReader.__init__
+
+    def clock_rate(self, *args, **kwargs):  # what such a file's header reads as
+        opened(self, *args, **kwargs)
+        self.fps = 90000.0
+
+    monkeypatch.setattr(video.VideoReader, "__init__", clock_rate)
+    ds = open_dataset(write_doc(scene / "d_clock", base_doc(video="../walk.avi", background={"median": 3})))
+    assert ds.fps is None and ds.frames == list(range(T))
+
+
 def test_background_from_the_median_of_an_image_folder(scene):
     doc = base_doc(images="../images", background={"source": "../images", "median": 9,
                                                    "frames": "0:10"})

@@ -108,14 +108,18 @@ def run(args) -> int:
     require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1
             and args.numpy_particles >= 1 and args.reference_particles >= 1,
             "cameras, particles and repeats must be >= 1")
+    # measure-step records (--quick: one case of its own sizes), else only tracking or start ones
+    measures = bool(backends) and (args.quick or bool(widths and cams and counts))
     empty = [f"--{k}" for k, v in (("widths", widths), ("cameras", cams), ("particles", counts),
                                    ("backends", backends)) if not v]
-    require(not empty, f"{', '.join(empty)} names no value: nothing would be measured")
+    require(measures or (not args.quick and bool(track_widths or starts)),
+            f"{', '.join(empty)} names no value and no --track-widths or --start-sets are given: "
+            "nothing would be measured")
     from ..data.dataset import open_dataset
 
     have = len(open_dataset(data).cameras)  # before the first record, not in its middle
-    require(args.quick or max(cams) <= have, f"--cameras {args.cameras}: the data set has {have} cameras",
-            data)
+    require(args.quick or not cams or max(cams) <= have,
+            f"--cameras {args.cameras}: the data set has {have} cameras", data)
     for key in ("chunk", "threads"):  # the tracking options' own rules, before any work
         if getattr(args, key) is not None:
             check_value(key, getattr(args, key), flag(key))
@@ -129,7 +133,7 @@ def run(args) -> int:
     host = machine()
     print(device_line(), flush=True)
     records: list[dict] = []
-    jobs = [(w, c) for w in widths for c in cams]
+    jobs = [(w, c) for w in widths for c in cams] if measures else []
     bar = tqdm(total=len(jobs) * len(backends) + 2 * len(track_widths) + len(starts), desc="bench",
                unit="case")
     for width, n_cam in jobs:

@@ -155,12 +155,12 @@ def open_described(path: Path) -> Dataset:
     for cam in cams:
         _check_principal_point(cam, doc_path)
     fps = doc.get("fps")
-    if fps is None:
-        fps = next((s.fps for s in sources if getattr(s, "fps", None)), None)
     require(fps is None or (isinstance(fps, (int, float)) and not isinstance(fps, bool)
                             and np.isfinite(fps) and 0 < fps <= MAX_FPS),
             f"'fps' must be a positive number up to {MAX_FPS} Hz (time_s keeps 6 decimals), "
             f"got {fps!r}", doc_path)
+    if fps is None:  # the videos' own rate; an impossible one (a stream's 90 kHz clock) is unknown
+        fps = next((s.fps for s in sources if getattr(s, "fps", None) and 0 < s.fps <= MAX_FPS), None)
     height = doc.get("height_m")
     require(height is None or (isinstance(height, (int, float)) and not isinstance(height, bool)
                                and np.isfinite(height) and 0.5 <= height <= 2.6),

@@ -18,6 +18,7 @@ from pathlib import Path
 from ..errors import IPFError, IPFWarning, require
 from ..geometry.camera import Camera
 from .calibration import distinct_names, read_calibration
+from .dataset import MAX_FPS
 from .silhouette import CLOSE_PX, OPEN_PX, THRESHOLD, read_color
 from .video import ImageSequence, VideoReader
 
@@ -141,7 +142,9 @@ def describe(inputs: list[Path], calibration: Path, out: Path, *, names: list[st
         notes.append(f"camera {k}: {p.name} -> {cam.name}, {size}, {r.frame_count} frames"
                      + (f", {r.fps:g} fps" if r.fps else ""))
         notes += [f"  note: {w.message}" for w in caught]
-    rates = [r.fps for r in readers if r.fps]
+    rates = [r.fps for r in readers if r.fps and r.fps <= MAX_FPS]
+    notes += [f"  note: {p.name}: its header's {r.fps:g} fps is not a frame rate; taken as unknown "
+              "(give --fps)" for p, r in zip(inputs, readers) if r.fps and r.fps > MAX_FPS]
     if rates:
         lo, hi = min(rates), max(rates)
         require(hi - lo <= RATE_TOLERANCE * hi, f"the videos run at different rates ({lo:g} to "

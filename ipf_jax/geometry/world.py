@@ -139,3 +139,22 @@ def detect_up_axis(cameras: list[Camera], masks: list[np.ndarray] | None = None)
                            f"{'xyz'[k]}, the silhouettes {other} (a camera rolled on its side?): "
                            f"give it with --up (one of {', '.join(AXES)})")
     return f"{_sign(cameras, k)}{'xyz'[k]}"
+
+
+def contradicted_up(cameras: list[Camera], masks: list[np.ndarray] | None, up: str) -> str | None:
+    """The signed axis the cameras clearly show as up where a given ``up`` says otherwise, or None.
+
+    Only clear evidence counts, so that a rig which fools :func:`detect_up_axis` (the reason to
+    give ``--up``) draws no warning: another axis only when the silhouettes' long axes lie along
+    it and hardly along the given one (the veto's own levels, :data:`VETO_HIGH` /
+    :data:`VETO_LOW`); the other sign of the same axis only when the camera centres stand clearly
+    on the other side of the floor (their mean height at least 0.1 world units)."""
+    k = int(np.argmax(np.abs(axis_vector(up))))  # (an unknown axis: IPFError)
+    sil = _silhouette_axis_scores(cameras, masks) if masks is not None else None
+    if sil is not None and sil[k] <= VETO_LOW and np.delete(sil, k).max() >= VETO_HIGH:
+        other = int(np.argmax(np.where(np.arange(3) == k, -1.0, sil)))
+        return f"{_sign(cameras, other)}{'xyz'[other]}"
+    heights = np.array([cam.centre[k] for cam in cameras])
+    if abs(heights.mean()) >= 0.1 and (heights.sum() >= 0) != (up[0] == "+"):
+        return f"{'+' if heights.sum() >= 0 else '-'}{'xyz'[k]}"
+    return None

@@ -62,7 +62,7 @@ from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import forward_kinematics, project_points
 from ..geometry.placement import HEIGHT_MIN_FRAMES, height_from_view
 from ..geometry.rays import blobs, camera_rays
-from ..geometry.world import AXES, detect_up_axis, up_rotation
+from ..geometry.world import AXES, contradicted_up, detect_up_axis, up_rotation
 from ..likelihood.scorer import (
     Observation,
     Scorer,
@@ -296,18 +296,15 @@ class Tracker:
 
     # -- the stages of a frame ---------------------------------------------------------------
     def _up_axis(self, up: str | None, given: bool) -> str:
-        """``up`` (a given one checked against the cameras': a warning when they clearly show
-        another), else the detected one."""
+        """``up`` (a given one checked against the cameras: a warning when they clearly show
+        another, :func:`~ipf_jax.geometry.world.contradicted_up`), else the detected one."""
         if up is not None and not given:
             return up  # the dataset's own
         masks = [without_full(m) for m in self.read_masks(self.frames[0])]
         if up is None:
             return detect_up_axis(self.dataset.cameras, masks)
-        try:
-            seen = detect_up_axis(self.dataset.cameras, masks)
-        except IPFError:
-            return up  # the cameras cannot tell: the given axis stands
-        if seen != up:
+        seen = contradicted_up(self.dataset.cameras, masks, up) if up in AXES else None
+        if seen is not None:
             warnings.warn(f"up axis {up} given, but the cameras show {seen} as up (the body would be "
                           f"tracked on its side or head): is the up axis {seen}?", IPFWarning, stacklevel=3)
         return up

@@ -17,9 +17,9 @@ from tqdm import tqdm
 from ..errors import IPFError, require
 
 VIDEO_CODECS = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG"}
-IMAGE_EXT = (".png", ".jpg", ".jpeg")
+IMAGE_EXT = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")  # one frame, by cv2.imwrite
 #: media it does not write: such a name is a mistake, not a folder to fill with PNGs
-OTHER_MEDIA = (".gif", ".webp", ".bmp", ".tif", ".tiff", ".mkv", ".webm", ".wmv", ".flv", ".mpg", ".mpeg")
+OTHER_MEDIA = (".gif", ".webp", ".mkv", ".webm", ".wmv", ".flv", ".mpg", ".mpeg")
 MIN_SIDE, MAX_SIDE = 480, 960  # default view size: the camera's, kept legible and not too large
 
 
