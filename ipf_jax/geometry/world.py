@@ -154,7 +154,6 @@ def contradicted_up(cameras: list[Camera], masks: list[np.ndarray] | None, up: s
     if sil is not None and sil[k] <= VETO_LOW and np.delete(sil, k).max() >= VETO_HIGH:
         other = int(np.argmax(np.where(np.arange(3) == k, -1.0, sil)))
         return f"{_sign(cameras, other)}{'xyz'[other]}"
-    heights = np.array([cam.centre[k] for cam in cameras])
-    if abs(heights.mean()) >= 0.1 and (heights.sum() >= 0) != (up[0] == "+"):
-        return f"{'+' if heights.sum() >= 0 else '-'}{'xyz'[k]}"
+    if abs(np.mean([cam.centre[k] for cam in cameras])) >= 0.1 and _sign(cameras, k) != up[0]:
+        return f"{_sign(cameras, k)}{'xyz'[k]}"  # (_sign by the cameras' heights, as detection)
     return None

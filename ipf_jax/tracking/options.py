@@ -23,6 +23,7 @@ from typing import Any, Callable, NamedTuple
 
 from ..body.limits import PRESETS, load_limits
 from ..body.shape import load_shape
+from ..data.dataset import MAX_FPS
 from ..errors import IPFError, require
 from ..filters import registry
 from ..geometry.world import AXES
@@ -156,7 +157,7 @@ OPTIONS: tuple[Option, ...] = (
     Option("resolution", "--resolution", "int", DEFAULT_RESOLUTION, "long side of the scoring images, "
            f"px (default {DEFAULT_RESOLUTION})", check=_within(16, 2048, " px"), metavar="PX"),
     Option("fps", "--fps", "float", None, f"frame rate, Hz (default: the dataset's, else {DEFAULT_FPS:g})",
-           check=_within(0.01, 10000, " Hz")),  # time_s has 6 decimals: 100 us at 10 kHz
+           check=_within(0.01, MAX_FPS, " Hz")),  # time_s has 6 decimals: 100 us at 10 kHz
     Option("up_axis", "--up", "axis", None, "the world's up axis, one of " + " ".join(AXES)
            + " (default: detected from the cameras)", choices=AXES, metavar="AXIS"),
     # -- the body

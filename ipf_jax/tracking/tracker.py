@@ -303,7 +303,7 @@ class Tracker:
         masks = [without_full(m) for m in self.read_masks(self.frames[0])]
         if up is None:
             return detect_up_axis(self.dataset.cameras, masks)
-        seen = contradicted_up(self.dataset.cameras, masks, up) if up in AXES else None
+        seen = contradicted_up(self.dataset.cameras, masks, up)  # (an unknown axis: IPFError)
         if seen is not None:
             warnings.warn(f"up axis {up} given, but the cameras show {seen} as up (the body would be "
                           f"tracked on its side or head): is the up axis {seen}?", IPFWarning, stacklevel=3)
