@@ -7,7 +7,7 @@ from test_sweep import read_summary, write_scene
 
 from ipf_jax.body import default_shape
 from ipf_jax.cli import main
-from ipf_jax.errors import IPFError
+from ipf_jax.errors import IPFError, IPFWarning
 from ipf_jax.sweep import backends, read_manifest
 
 # two frames (initialisation from the given pose + one filter step): the batch command has the
@@ -21,15 +21,27 @@ TRACK = ["--frames", "0:2", "--init-pose", "pose0.csv", "--height", str(default_
 def lab(tmp_path_factory):
     root = write_scene(tmp_path_factory.mktemp("lab"), n_frames=2)
     shutil.copytree(root / "walk", root / "walk2")
+    shutil.copytree(root / "walk", root / "walk3")
     (root / "manifest.txt").write_text(
-        "path,truth\n# March sessions\nwalk, truth.csv\n\n\"walk2\"\nmissing_take\nwalk2, no_truth.csv\n")
+        "path,truth\n# March sessions\nwalk, truth.csv\n\n\"walk2\"\nmissing_take\nwalk3, no_truth.csv\n")
     return root
 
 
 def test_manifest_lines(lab):
     items = read_manifest(lab / "manifest.txt")
     assert items == [(lab / "walk", lab / "truth.csv"), (lab / "walk2", None), (lab / "missing_take", None),
-                     (lab / "walk2", lab / "no_truth.csv")]
+                     (lab / "walk3", lab / "no_truth.csv")]
+
+
+def test_manifest_repeats(tmp_path):
+    """A recording listed twice merged into one run without a word; with two truths, unsaid which."""
+    (tmp_path / "m.txt").write_text("walk, truth.csv\n./walk, truth.csv\nother\n")
+    with pytest.warns(IPFWarning, match=r"m.txt: line 2 repeats line 1 \(./walk\): tracked once"):
+        assert read_manifest(tmp_path / "m.txt") == [(tmp_path / "walk", tmp_path / "truth.csv"),
+                                                     (tmp_path / "other", None)]
+    (tmp_path / "m.txt").write_text("walk, truth.csv\nother\nwalk\n")
+    with pytest.raises(IPFError, match="line 3: walk is also on line 1 with another truth file"):
+        read_manifest(tmp_path / "m.txt")
 
 
 @pytest.mark.parametrize("text, message", [("# nothing\n\n", "lists no recording"),
@@ -51,7 +63,7 @@ def test_batch_records_failures_and_resumes(lab, tmp_path, capsys, monkeypatch):
     assert (status["kind"], status["succeeded"], status["failed"]) == ("batch", 2, 2)
     why = {f["dataset"]: f["error"]["message"] for f in status["failures"]}
     assert "dataset folder not found" in why[str(lab / "missing_take")]
-    assert "truth file not found" in why[str(lab / "walk2")]
+    assert "truth file not found" in why[str(lab / "walk3")]
     rows = read_summary(out / "summary.csv")
     assert [r["status"] for r in rows] == ["ok", "ok", "failed", "failed"]
     assert 0 < float(rows[0]["mpjpe_m"]) < 0.2 and rows[1]["mpjpe_m"] == ""  # no truth: no error measured

@@ -156,6 +156,8 @@ def test_output_files_and_zero_values_are_checked_before_any_work(tmp_path, caps
     reference = ["--quick", "--backends", "numpy-reference"]
     for extra, said in (([*reference, "--reference-particles", "0"], ">= 1"),
                         (["--quick", "--numpy-particles", "-1"], ">= 1"),  # were timed: 0 poses/s
+                        # no cap: a typo's 10^8 particles ran out of memory mid-bench
+                        (["--quick", "--particles", "100000000"], "100000000 particles in one measure step"),
                         (["--quick", "--backends", ","], "--backends names no value"),  # 0 records
                         # nothing at all (the start records alone would still be a bench)
                         (["--widths", ",", "--track-widths", ",", "--start-sets", ","],

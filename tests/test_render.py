@@ -171,3 +171,23 @@ def test_render_needs_poses_and_a_known_dataset(scene, tmp_path, capsys):
     (run / "poses.csv").unlink()
     assert main(["render", str(run), "--out", str(tmp_path / "x.mp4"), "--quiet"]) == 2
     assert "has no poses.csv" in capsys.readouterr().err
+
+
+def test_render_checks_the_cameras_against_the_run(scene, tmp_path, capsys):
+    """A dataset with none of the run's cameras was drawn without a word (another recording)."""
+    doc = json.loads((scene["run"] / "run.json").read_text())
+    for tracked, code in ((["Room1", "Room2"], 2), (["Camera1"], 0), (["Camera1", "Camera2"], 0)):
+        run = tmp_path / f"run{len(tracked)}{tracked[0]}"
+        shutil.copytree(scene["run"], run)
+        (run / "run.json").write_text(json.dumps({**doc, "cameras": tracked}))
+        assert main(["render", str(run), "--out", str(tmp_path / "x.png"), "--frames", "1",
+                     "--quiet"]) == code
+        err = capsys.readouterr().err.strip()
+        if code:
+            assert err.startswith("error: ") and "none of the cameras drawn (Camera1, Camera2) is one " \
+                "the run was tracked with (Room1, Room2)" in err and "\n" not in err
+        elif len(tracked) == 1:  # a held-out view is drawn, and said
+            assert err == "warning: drawing camera(s) Camera2 the run was not tracked with (the " \
+                "model as their calibration places it)"
+        else:
+            assert err == ""

@@ -5,6 +5,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import IPFError, IPFWarning, require
+from ..filters.registry import MAX_EVALUATIONS
 from ..profiling import (
     BACKENDS,
     DATASET,
@@ -108,6 +109,9 @@ def run(args) -> int:
     require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1
             and args.numpy_particles >= 1 and args.reference_particles >= 1,
             "cameras, particles and repeats must be >= 1")
+    big = max(counts + [args.numpy_particles, args.reference_particles])
+    require(big <= MAX_EVALUATIONS, f"{big} particles in one measure step: more than a frame's "
+            f"{MAX_EVALUATIONS} evaluations (gigabytes of particles); measure fewer")
     # measure-step records (--quick: one case of its own sizes), else only tracking or start ones
     measures = bool(backends) and (args.quick or bool(widths and cams and counts))
     empty = [f"--{k}" for k, v in (("widths", widths), ("cameras", cams), ("particles", counts),

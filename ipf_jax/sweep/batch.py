@@ -4,7 +4,8 @@ The manifest is a text file, one recording per line: a dataset folder (any layou
 :func:`ipf_jax.data.dataset.open_dataset` reads, including a ``dataset.json`` describing videos),
 optionally followed by a comma and a truth file in the joints.csv convention. Blank lines and lines
 starting with ``#`` are skipped, as is a ``path,truth`` header; relative paths are relative to the
-manifest. Quote a path that contains a comma (CSV rules)::
+manifest. A recording listed twice is tracked once (a warning names the line); twice with
+different truth files, an error. Quote a path that contains a comma (CSV rules)::
 
     # recordings of 2024-03
     session01/walk1
@@ -16,9 +17,10 @@ with its error, like any item whose tracking fails.
 from __future__ import annotations
 
 import csv
+import warnings
 from pathlib import Path
 
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 from .spec import Cell, check_filter, make_cell, resolve
 
 
@@ -32,7 +34,7 @@ def read_manifest(path: str | Path) -> list[tuple[Path, Path | None]]:
     except (OSError, UnicodeDecodeError) as e:
         raise IPFError(f"not a readable text manifest ({e})", path) from None
     base = path.resolve().parent
-    items = []
+    items, seen = [], {}
     for no, row in enumerate(csv.reader(lines), start=1):
         row = [c.strip() for c in row]
         if not row or not row[0] or row[0].startswith("#") or (no == 1 and row[0].lower() == "path"):
@@ -41,9 +43,19 @@ def read_manifest(path: str | Path) -> list[tuple[Path, Path | None]]:
                 f"(got {len(row)} fields)", path)
         truth = row[1] if len(row) > 1 and row[1] else None
         try:
-            items.append((resolve(row[0], base), resolve(truth, base) if truth else None))
+            item = (resolve(row[0], base), resolve(truth, base) if truth else None)
         except IPFError as e:
             raise IPFError(f"line {no}: {e.message}", path) from None
+        key = item[0].resolve()
+        if key in seen:  # the same recording twice: once is what was meant, unless the truths differ
+            first, truth_then = seen[key]
+            require(truth_then == item[1], f"line {no}: {row[0]} is also on line {first} with another "
+                    "truth file: which one?", path)
+            warnings.warn(IPFWarning(f"{path.name}: line {no} repeats line {first} ({row[0]}): "
+                                     "tracked once"))
+            continue
+        seen[key] = (no, item[1])
+        items.append(item)
     require(bool(items), "the manifest lists no recording", path)
     return items
 

@@ -8,13 +8,14 @@ frame, or a folder of ``frameNNNNN.png``.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import cv2
 import numpy as np
 from tqdm import tqdm
 
-from ..errors import IPFError, require
+from ..errors import IPFError, IPFWarning, require
 
 VIDEO_CODECS = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v", ".avi": "MJPG"}
 IMAGE_EXT = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")  # one frame, by cv2.imwrite
@@ -41,6 +42,20 @@ def _dataset_path(dataset, meta: dict, run_dir: Path) -> Path:
     require(path.exists(), f"the run's dataset {name} is not found from here: give --dataset",
             run_dir / "run.json")
     return path
+
+
+def _check_cameras(tracked, drawn: list[str], path: Path) -> None:
+    """A dataset none of whose drawn cameras the run was tracked with is another recording (an
+    error); drawing some cameras the run did not use is allowed (a held-out view) but said."""
+    if not isinstance(tracked, list) or not tracked:
+        return  # an older run.json: nothing to compare
+    require(bool(set(drawn) & set(map(str, tracked))), f"none of the cameras drawn "
+            f"({', '.join(drawn)}) is one the run was tracked with ({', '.join(map(str, tracked))}): "
+            "is it the run's dataset?", path)
+    others = [n for n in drawn if n not in tracked]
+    if others:
+        warnings.warn(IPFWarning(f"drawing camera(s) {', '.join(others)} the run was not tracked "
+                                 "with (the model as their calibration places it)"))
 
 
 class _Sink:
@@ -103,6 +118,7 @@ def render_run(run_dir: str | Path, out: str | Path, *, dataset: str | Path | No
     require(not absent, f"frame(s) {absent[:5]} of the run are not in the dataset "
             f"({min(ds.frames)}..{max(ds.frames)}): is it the run's dataset?", ds.path)
     cams = pick_cameras(ds.cameras, cameras)
+    _check_cameras(run.meta.get("cameras"), [ds.cameras[c].name for c in cams], ds.path)
     if background is None:
         background = "images" if ds.images(int(chosen[0])) is not None else "masks"
     require(background in ("images", "masks"), f"unknown background {background!r}")
