@@ -87,6 +87,17 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _check_sizes(args, widths: list[int], cams: list[int], counts: list[int]) -> None:
+    """Widths, camera and particle counts, repeats: each within what a bench can measure."""
+    require(all(16 <= w <= 2048 for w in widths), "widths must be 16..2048 px")
+    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1
+            and args.numpy_particles >= 1 and args.reference_particles >= 1,
+            "cameras, particles and repeats must be >= 1")
+    big = max(counts + [args.numpy_particles, args.reference_particles])
+    require(big <= MAX_EVALUATIONS, f"{big} particles in one measure step: more than a frame's "
+            f"{MAX_EVALUATIONS} evaluations (gigabytes of particles); measure fewer")
+
+
 def run(args) -> int:
     from tqdm import tqdm
 
@@ -105,13 +116,7 @@ def run(args) -> int:
     starts = [] if args.quick else [_start_path(v.strip(), shared_data_dir())
                                      for v in args.start_sets.split(",") if v.strip()]
     require(args.start_frames >= 2, f"--start-frames must be >= 2 (got {args.start_frames})")
-    require(all(16 <= w <= 2048 for w in widths + track_widths), "widths must be 16..2048 px")
-    require(all(c >= 1 for c in cams) and all(n >= 1 for n in counts) and args.repeats >= 1
-            and args.numpy_particles >= 1 and args.reference_particles >= 1,
-            "cameras, particles and repeats must be >= 1")
-    big = max(counts + [args.numpy_particles, args.reference_particles])
-    require(big <= MAX_EVALUATIONS, f"{big} particles in one measure step: more than a frame's "
-            f"{MAX_EVALUATIONS} evaluations (gigabytes of particles); measure fewer")
+    _check_sizes(args, widths + track_widths, cams, counts)
     # measure-step records (--quick: one case of its own sizes), else only tracking or start ones
     measures = bool(backends) and (args.quick or bool(widths and cams and counts))
     empty = [f"--{k}" for k, v in (("widths", widths), ("cameras", cams), ("particles", counts),
