@@ -57,6 +57,26 @@ def test_build_holds_the_height_and_clips_into_the_bounds():
     assert P.stature(w) == pytest.approx(P.stature(t.values) + 0.1 * t.values[SHAPE_INDEX["thigh"]])
 
 
+def test_a_reference_lengthened_in_one_parameter_still_builds_a_loadable_shape():
+    """The initialisation's proportion search lengthens the trunk parameter alone; the fit's
+    group factors read the trunk group's first parameter, so a fitted shape.json had its trunk
+    at 1.18 of the template's ratio and --shape refused it. Every built body is inside the
+    loader's bounds, parameter by parameter."""
+    t = default_shape()
+    ref = t.with_factors(trunk=1.12, legs=0.9).values
+    theta = np.zeros((3, P.NUM_GROUPS))
+    theta[:, P.GROUP_NAMES.index("trunk")] = np.log([1.0, 1.1, 1.15])
+    theta[:, P.GROUP_NAMES.index("thigh")] = np.log([1.0, 0.85, 0.85])
+    for height in (None, 1.8):
+        for row in P.build(ref, theta, height_m=height):
+            P.check_bounds(row, tolerance=1e-6)
+    far = t.with_factors(trunk=1.3).values
+    with pytest.raises(IPFError, match="trunk"):
+        P.check_bounds(far)
+    P.check_bounds(P.within_bounds(far), tolerance=1e-6)
+    assert np.array_equal(P.within_bounds(t.values), t.values)  # inside: unchanged
+
+
 def test_a_wider_pelvis_moves_the_hips_apart_by_harrington():
     t = default_shape()
     theta = np.zeros(P.NUM_GROUPS)

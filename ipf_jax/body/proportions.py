@@ -233,8 +233,29 @@ def build(reference: np.ndarray, log_factors: np.ndarray, height_m: float | None
         if np.allclose(clipped, f, rtol=0, atol=1e-9) and height_m is None:
             break
         v = _scale_groups(v, clipped / f)
+    v = within_bounds(v)
     if height_m is not None:
         v = hip_rule(v * (height_m / stature(v))[..., None])
+    return v
+
+
+def within_bounds(values: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """(..., P) values with every parameter's ratio to stature clipped into
+    :data:`RATIO_LOWER`..:data:`RATIO_UPPER` (what :func:`check_bounds` asks of a shape file).
+
+    Group factors (:func:`build`) are read off each group's first parameter, and the
+    initialisation's proportion search lengthens some parameters alone
+    (:meth:`~ipf_jax.body.shape.BodyShape.with_factors`), so a group's other parameters could end
+    outside their own bounds: a fitted ``shape.json`` that ``--shape`` then refused. Clipping moves
+    the stature, so it is repeated until nothing moves (a clipped length of the standing chain
+    converges by about a third a round)."""
+    v = np.array(values, np.float64, copy=True)
+    for _ in range(iterations):
+        h = stature(v)[..., None]
+        clipped = np.clip(v, RATIO_LOWER * h, RATIO_UPPER * h)
+        if np.array_equal(clipped, v):
+            break
+        v = clipped
     return v
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..body.limits import Limits
 from ..body.model import DOF_INDEX, DOF_NAMES, NUM_DOF
+from ..body.proportions import within_bounds
 from ..body.shape import LENGTH_GROUPS, BodyShape
 from ..errors import IPFError
 from ..filters.base import gaussian_noise
@@ -307,7 +308,8 @@ def fit_proportions(particles, weights, shape: BodyShape, measure, U, limits, *,
         for group in LENGTH_GROUPS:
             for k in factors:
                 trial = dict(current, **{group: current[group] * k})
-                cand_shape = base.with_factors(**trial)
+                cand = base.with_factors(**trial)  # a plausible person: inside the bounds
+                cand_shape = BodyShape(within_bounds(cand.values), cand.height_m)
                 q = np.array([place_on_floor(t, cand_shape.values, U) for t in top])
                 w = measure(limits.clip(q), cand_shape)
                 n += len(q)
