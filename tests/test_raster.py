@@ -222,6 +222,29 @@ def test_row_coeffs_field_by_field_equal_those_of_the_stacks():
     by_fields = jax.jit(lambda c: row_coeffs(jnp, quantize_fields(jnp, lambda i: c[..., i], q,
                                                                    long_side), q))(caps)
     leaves = jax.tree.leaves(ref)
-    assert len(leaves) == 28
+    assert len(leaves) == 18  # 2 discs x 3, 2 sides x 5, 2 inverse slopes
     for a, b in zip(leaves, jax.tree.leaves(by_fields)):
         np.testing.assert_array_equal(a, np.asarray(b))
+
+
+def test_pixels_are_those_inside_the_true_capsule_up_to_its_boundary():
+    """Capsules of equal radii, many leaving the image sideways: the oracle's pixels (the kernels'
+    by the test above) are exactly the pixel centres within the radius of the axis, wherever a
+    centre is more than a pixel from the boundary (a side's row from the image's border to the
+    side included: the disc beyond the border bounds it)."""
+    from ipf_jax.likelihood.model_mask import model_mask
+
+    h, w = 60, 80
+    rng = np.random.default_rng(3)
+    j, i = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+    for k in range(120):  # one end beyond the left or right border, the other inside
+        c0 = np.array([rng.choice([rng.uniform(-30, -5), rng.uniform(w + 5, w + 30)]), rng.uniform(0, h)])
+        c1 = rng.uniform([0, 0], [w, h]) if k % 2 else c0 + rng.normal(0, 30, 2)
+        r = rng.uniform(2, 12)
+        caps = capsule_outline(np, c0[None], np.array([r]), c1[None], np.array([r]), np.ones(1, bool))
+        axis = c1 - c0
+        t = np.clip(((j - c0[0]) * axis[0] + (i - c0[1]) * axis[1]) / (axis @ axis), 0, 1)
+        dist = np.hypot(j - c0[0] - t * axis[0], i - c0[1] - t * axis[1])
+        clear = np.abs(dist - r) > 1.0
+        drawn = model_mask(caps.astype(np.float32), h, w)
+        np.testing.assert_array_equal(drawn[clear], (dist <= r)[clear])

@@ -11,9 +11,11 @@ A 3D capsule (hull of two spheres) projects to the hull of two discs. Its 2D rec
 * ``flag``: 0 = not drawn (a sphere behind the camera), 1 = discs only (one disc contains the other
   or the capsule is a point), 2 = discs + quad.
 
-The pixel set of a capsule is ``disc0 | disc1 | quad`` evaluated at pixel centres after the fixed
-point quantisation of :mod:`ipf_jax.likelihood.raster`; that set is what the JAX kernels and the NumPy
-reference must agree on exactly. This module is written against the array namespace ``xp`` so the
+The pixel set of a capsule is, row by row, the pixel centres from the leftmost to the rightmost
+of its discs' chords and its quad's two tangent sides' crossings, after the fixed point
+quantisation of :mod:`ipf_jax.likelihood.raster` (:func:`~ipf_jax.likelihood.raster.solve_rows`):
+for the exact hull of two discs, the pixel centres inside it. That set is what the JAX kernels and
+the NumPy reference must agree on exactly. This module is written against the array namespace ``xp`` so the
 same definition serves both sides (it is geometry, compared to a tolerance, never bit-for-bit).
 """
 from __future__ import annotations

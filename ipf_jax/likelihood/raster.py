@@ -7,26 +7,34 @@ capsule record (:mod:`ipf_jax.geometry.capsule2d`) to a fixed-point grid of ``1/
 image's long side around it and radii to the long side. From there on every test is an int32
 expression whose magnitude is bounded below 2**30, so JAX, NumPy and any chunking agree exactly.
 
-A pixel (row ``i``, column ``j``) has its centre at ``(Q j, Q i)`` on that grid. A capsule's parts
-are disc0, disc1 and the tangent quad (closed sets); on each row the capsule covers the columns from
-its leftmost to its rightmost inside pixel centre (row-convex: for the exact hull of two discs this
-changes nothing; it keeps fixed-point slivers between parts from splitting a row).
+A pixel (row ``i``, column ``j``) has its centre at ``(Q j, Q i)`` on that grid. On each row a
+capsule covers the columns from its leftmost to its rightmost candidate (:func:`solve_rows`): the
+ends of the row's chords of disc0 and disc1 (in the image or not, holding a pixel centre or not)
+and the crossings of the tangent quad's two sides with the row, each rounded inwards to a pixel
+centre. For the exact hull of two discs that is every pixel centre inside it (the hull's boundary
+on a row lies on a circle or a side); on the fixed-point grid it keeps slivers between parts from
+splitting a row. The quad's two chords across the discs are never tested (they
+lie inside the discs): two sides instead of four edges a row (until 2026-12-07 every part was
+tested and filled the same way; counts moved by a few edge pixels: docs/benchmarks.md).
 
 Work is restricted to windows. Each capsule ``s`` is rasterised on a window of ``R`` rows starting
 at ``win_rows[s]`` and ``Wd`` 32-bit words starting at ``win_words[s]``; the windows must hold every
 in-image pixel of the capsule (:func:`segment_extent` bounds them) and then the counts do not depend
 on where they are. Two kernels give the row intervals:
 
-* :func:`list_intervals` (scanline) solves each part's row interval exactly (integer square root
-  and floor division done as a float estimate plus one exact integer check) on the rows of a
+* :func:`list_intervals` (scanline) solves each row's candidates exactly (integer square root
+  and division done as a float estimate plus one exact integer check) on the rows of a
   :class:`RowList`, each capsule's own rows of its window: O(rows x segments);
-* :func:`dense_interval_stage` tests every window pixel against every part: O(pixels x segments).
+* :func:`dense_interval_stage` tests every window pixel against the discs, and adds the sides'
+  crossings and the chords past the image's edges by exact integer division: O(pixels x segments).
 
 :func:`batch_words` then turns the intervals into bit-packed uint32 row words, ORs the capsules'
 windows into one grid (the union), ANDs it with the mask's words and counts with
-``population_count``. :mod:`ipf_jax.reference.raster` does the dense test on the whole image in
-NumPy and :mod:`ipf_jax.reference.scanline` the scanline method, vectorised, in NumPy (both call
-:func:`row_intervals` / :func:`solve_rows`, the same integer code).
+``population_count``. :mod:`ipf_jax.reference.raster` counts on
+:func:`~ipf_jax.likelihood.model_mask.model_mask`, the same rule row by row in NumPy with exact
+integer roots and division (the oracle), and :mod:`ipf_jax.reference.scanline` runs the scanline
+method, vectorised, in NumPy (it calls :func:`row_intervals` / :func:`solve_rows`, the same integer
+code).
 
 The scanline kernels take a batch of particles on the LAST axis (the row loops then vectorise over
 whole particle vectors; with rows innermost they took 1.5-2x longer: docs/benchmarks.md);
@@ -193,19 +201,6 @@ def _isqrt(xp, m):
     return xp.where(s * s > m, s - 1, s)
 
 
-def _floor_div(xp, n, ad, inv_ad, f_max):
-    """floor(n / ad) for int32 ``ad`` >= 1 (with ``inv_ad`` = 1 / ad, float32), clipped.
-
-    Exact whenever the quotient lies inside (-f_max, f_max): the float quotient is then within
-    0.01 of n / ad (relative error ~2**-22 on a value < 2050), its nearest integer is the floor or
-    one above it, and one integer product decides. Outside, the clipped value stays on the right
-    side of the image, which is all the caller needs. No integer division: it is not vectorised
-    on CPUs.
-    """
-    f = xp.clip(xp.round(n.astype(xp.float32) * inv_ad), -f_max, f_max).astype(xp.int32)
-    return xp.where(ad * f <= n, f, f - 1)
-
-
 _INT_MAX = np.int32((1 << 31) - 1)
 
 
@@ -215,16 +210,12 @@ class RowCoeffs(NamedTuple):
 
     disc : 2 x (cx, cy, r^2) of disc0 and disc1 on the fixed-point grid; r^2 is -1 for a capsule
         not drawn (no row then meets its discs);
-    edge : 4 x (ex, n0, ad, hi_add) of the quad's edges. On fixed-point row ``y`` an edge's
-        half-plane holds the columns j with ``d j <= n``, ``n = ex y + n0``, ``d = Q ey``; with
-        ``ad = |d|`` and ``f = floor(n / ad)`` that is ``j <= f`` if d > 0 and ``j >= -f`` if
-        d < 0. ``hi_add`` (0 if d > 0, far if d < 0) makes ``f + hi_add`` the edge's upper bound
-        and ``hi_add - far - f`` its lower bound, no select per row. A horizontal edge (d = 0)
-        bounds only the rows, which ``rows`` does: it is stored as (0, 0, 1, far / 2), whose
-        bounds (far / 2 and -far / 2) hold every column;
-    inv_d : 4 x 1/ad, float32;
-    rows : (first, last) fixed-point rows of the quad's corners; (int32 max, 0) for a capsule
-        without a quad (no row then meets it).
+    side : 2 x (ex, n0, ad, y_lo, y_hi) of the quad's two tangent sides (T0- -> T1- and T1+ ->
+        T0+). On a fixed-point row ``y`` with ``y_lo <= y <= y_hi`` the side crosses the row at
+        column ``n / ad``, ``n = ex y + n0`` (the sign of the side's rise folded into ``ex`` and
+        ``n0``, so ``ad`` > 0); a side that is flat, or of a capsule without a quad, has
+        ``y_lo`` = int32 max and ``y_hi`` = 0 (no row);
+    inv_d : 2 x 1/ad, float32.
 
     Computed once per capsule, not once per row: XLA fuses such per-capsule work into the row loop
     and, when the particle axis is the loop's innermost one, recomputes it for every row; and each
@@ -234,32 +225,33 @@ class RowCoeffs(NamedTuple):
     """
 
     disc: tuple
-    edge: tuple
+    side: tuple
     inv_d: tuple
-    rows: tuple
+
+
+#: The quad's corners are T0+ T0- T1- T1+ (:mod:`ipf_jax.geometry.capsule2d`): its edges 1 and 3
+#: are the tangent sides, edges 0 and 2 chords of disc0 and disc1.
+SIDES = (1, 3)
 
 
 def row_coeffs(xp, qf: QuantFields, q: int) -> RowCoeffs:
     """:class:`QuantFields` (batch ``qf.drawn.shape``) -> :class:`RowCoeffs`, exact int32
     (:func:`as_fields` gives them of stacked :class:`QuantCaps`)."""
     disc = tuple((cx, cy, xp.where(qf.drawn, r * r, -1).astype(xp.int32)) for cx, cy, r in qf.disc)
-    edges = []
-    for k in range(4):
+    sides = []
+    for k in SIDES:
         (ax, ay), (bx, by) = qf.corners[k], qf.corners[(k + 1) % 4]
         ex, ey = bx - ax, by - ay
-        d = ey * q
-        flat = d == 0  # bounds no column: the rows' gate holds it
-        hi_add = xp.where(d > 0, np.int32(0), xp.where(flat, np.int32(_FAR // 2), np.int32(_FAR)))
-        edges.append((xp.where(flat, 0, ex).astype(xp.int32),
-                      xp.where(flat, 0, ey * ax - ex * ay).astype(xp.int32),
-                      xp.where(flat, 1, xp.abs(d)).astype(xp.int32), hi_add))
-    inv_d = tuple(np.float32(1.0) / xp.maximum(e[2], 1).astype(xp.float32) for e in edges)
-    ys = [y for _, y in qf.corners]
-    first = xp.minimum(xp.minimum(ys[0], ys[1]), xp.minimum(ys[2], ys[3]))
-    last = xp.maximum(xp.maximum(ys[0], ys[1]), xp.maximum(ys[2], ys[3]))
-    rows = (xp.where(qf.quad_on, first, _INT_MAX).astype(xp.int32),
-            xp.where(qf.quad_on, last, 0).astype(xp.int32))
-    return RowCoeffs(disc, tuple(edges), inv_d, rows)
+        # the crossing of row y: q ey j = ex y + (ey ax - ex ay); the sign of ey folded in
+        sign = xp.where(ey < 0, -1, 1).astype(xp.int32)
+        on = qf.quad_on & (ey != 0)
+        sides.append((xp.where(on, sign * ex, 0).astype(xp.int32),
+                      xp.where(on, sign * (ey * ax - ex * ay), 0).astype(xp.int32),
+                      xp.where(on, xp.abs(ey) * q, 1).astype(xp.int32),
+                      xp.where(on, xp.minimum(ay, by), _INT_MAX).astype(xp.int32),
+                      xp.where(on, xp.maximum(ay, by), 0).astype(xp.int32)))
+    inv_d = tuple(np.float32(1.0) / s[2].astype(xp.float32) for s in sides)
+    return RowCoeffs(disc, tuple(sides), inv_d)
 
 
 def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
@@ -268,6 +260,15 @@ def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
     ``at`` maps a per-capsule array (the batch shape of ``rc``) to one that broadcasts against
     ``py`` (e.g. ``a[..., None]`` with rows last, ``a[:, None, :]`` with particles last). Returns
     lo, hi of the broadcast shape, int32, clipped to [-1, width] (empty when lo > hi).
+
+    On each row a capsule covers the columns from the smallest leftmost candidate to the largest
+    rightmost one: for each disc the row meets, the first pixel centre at or right of its chord's
+    left end and the last at or left of its right end (a chord may hold none: it still bounds the
+    row), and for each tangent side crossing the row, the first pixel centre at or right of the
+    crossing and the last at or left of it. For the exact hull of two discs that is every pixel
+    centre inside it: the hull's boundary on a row is on one of the two circles or one of the two
+    sides, and ``ceil`` of the smallest end is the smallest ``ceil``. The quad's chords across
+    the discs need no test (they lie inside the discs).
     """
     shift = q.bit_length() - 1  # q is a power of two: x >> shift == floor(x / q)
     lo = hi = None
@@ -275,35 +276,27 @@ def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
         cx, cy, rr = (at(a) for a in rc.disc[k])
         dy = xp.clip(py - cy, -_BIG, _BIG)
         m = rr - dy * dy
-        s = _isqrt(xp, m)  # -1 on a row the disc misses: the chord below is then empty
+        s = _isqrt(xp, m)
         d_lo, d_hi = -((s - cx) >> shift), (cx + s) >> shift  # ceil((cx - s) / q), floor(...)
-        ok = d_lo <= d_hi  # a chord may hold no pixel centre
+        ok = m >= 0  # the row meets the disc (a chord holding no pixel centre still bounds the row)
         if lo is None:
             lo, hi = xp.where(ok, d_lo, np.int32(_FAR)), xp.where(ok, d_hi, np.int32(-_FAR))
         else:
             lo = xp.where(ok, xp.minimum(lo, d_lo), lo)
             hi = xp.where(ok, xp.maximum(hi, d_hi), hi)
-    # quad: the rows between its corners, and there the intersection of its sloped edges'
-    # half-planes  ey (Q j - ax) <= ex (py - ay), i.e.  d j <= n  with d = Q ey and
-    # n = ex py + (ey ax - ex ay): |n| < 2**30 for coordinates in the guard band. Each bound is
-    # exact inside (-width - 2, width + 2), then clipped to [-3, width + 2] (upper) and
-    # [-2, width + 3] (lower): a bound beyond the image keeps its side, and two bounds on one side
-    # leave the row empty.
+    # the sides' crossings n / ad (|n| < 2**30 for coordinates in the guard band): the float
+    # quotient's nearest integer f is its floor or its ceiling whenever the quotient lies inside
+    # (-width - 2, width + 2) (within 0.01 of it there), and one integer product tells which; a
+    # crossing beyond that keeps its side of the image after the clip
     f_max = xp.asarray(width + 2).astype(xp.float32)
-    q_lo = q_hi = None
-    for k in range(4):
-        ex, n0, ad, hi_add = (at(a) for a in rc.edge[k])
+    for k in range(2):
+        ex, n0, ad, y_lo, y_hi = (at(a) for a in rc.side[k])
         n = ex * py + n0
-        f = _floor_div(xp, n, ad, at(rc.inv_d[k]), f_max)
-        upper, lower = f + hi_add, hi_add - (f + np.int32(_FAR))
-        q_hi = upper if q_hi is None else xp.minimum(q_hi, upper)
-        q_lo = lower if q_lo is None else xp.maximum(q_lo, lower)
-    q_hi = xp.clip(q_hi, -3, width + 2)
-    q_lo = xp.clip(q_lo, -2, width + 3)
-    first, last = (at(a) for a in rc.rows)
-    q_ok = (py >= first) & (py <= last) & (q_lo <= q_hi)
-    lo = xp.where(q_ok, xp.minimum(lo, q_lo), lo)
-    hi = xp.where(q_ok, xp.maximum(hi, q_hi), hi)
+        f = xp.clip(xp.round(n.astype(xp.float32) * at(rc.inv_d[k])), -f_max, f_max).astype(xp.int32)
+        p = ad * f
+        crosses = (py >= y_lo) & (py <= y_hi)
+        lo = xp.where(crosses, xp.minimum(lo, xp.where(p < n, f + 1, f)), lo)  # ceil(n / ad)
+        hi = xp.where(crosses, xp.maximum(hi, xp.where(p > n, f - 1, f)), hi)  # floor(n / ad)
     return xp.clip(lo, -1, width), xp.clip(hi, -1, width)
 
 
@@ -391,8 +384,8 @@ def interval_stage(caps, win_rows, n_win: int, q: int, long_side: int, height, w
     return list_intervals(one, window_list(win_rows, n_win), q, height, width).reshape(-1, n_win)
 
 
-def parts_inside(qc: QuantCaps, px, py, xp=jnp):
-    """Per-pixel membership in each capsule's parts (before the row fill).
+def discs_inside(qc: QuantCaps, px, py, xp=jnp):
+    """Per-pixel membership in each capsule's discs (before the row fill).
 
     px, py : int32 fixed-point pixel centres broadcasting against (S, 1, 1) (e.g. (S, 1, X) and
     (S, R, 1)).  Returns (S, R, X) bool.
@@ -406,31 +399,61 @@ def parts_inside(qc: QuantCaps, px, py, xp=jnp):
         dx = xp.clip(px - cx, -_BIG, _BIG)
         dy = xp.clip(py - cy, -_BIG, _BIG)
         inside = inside | (dx * dx + dy * dy <= r * r)
-    quad_in = per_seg(qc.quad_on)
-    for k in range(4):
-        a, b = qc.quad[:, k], qc.quad[:, (k + 1) % 4]
-        ax, ay = per_seg(a[:, 0]), per_seg(a[:, 1])
-        quad_in = quad_in & (_cross(per_seg(b[:, 0]) - ax, per_seg(b[:, 1]) - ay, px - ax, py - ay) >= 0)
-    return (inside | quad_in) & per_seg(qc.drawn)
+    return inside & per_seg(qc.drawn)
+
+
+def side_crossings(qc: QuantCaps, py, q: int, xp=jnp):
+    """Each capsule's tangent sides on fixed-point rows ``py`` (S, R), by exact integer division:
+    (first, last) (S, R) int32, the first pixel column at or right of a side's crossing and the
+    last at or left of one, over the sides that cross the row (``_FAR`` / ``-_FAR`` where none
+    does). The dense kernel's and the reference's form of what :func:`solve_rows` computes from
+    :class:`RowCoeffs`."""
+    first = xp.full(py.shape, _FAR, xp.int32)
+    last = xp.full(py.shape, -_FAR, xp.int32)
+    for k in SIDES:
+        ax, ay = qc.quad[:, k, 0][:, None], qc.quad[:, k, 1][:, None]
+        bx, by = qc.quad[:, (k + 1) % 4, 0][:, None], qc.quad[:, (k + 1) % 4, 1][:, None]
+        rise = by - ay
+        # the side's line on row py: q j rise = ax rise + (bx - ax) (py - ay)
+        num, den = ax * rise + (bx - ax) * (py - ay), q * rise
+        num, den = xp.where(den < 0, -num, num), xp.maximum(xp.abs(den), 1)
+        crosses = (qc.quad_on[:, None] & (rise != 0) & (py >= xp.minimum(ay, by))
+                   & (py <= xp.maximum(ay, by)))
+        first = xp.where(crosses, xp.minimum(first, -((-num) // den)), first)
+        last = xp.where(crosses, xp.maximum(last, num // den), last)
+    return first.astype(xp.int32), last.astype(xp.int32)
 
 
 def dense_interval_stage(caps, win_rows, win_words, n_win: int, n_win_words: int, q: int,
                          long_side: int, height, width):
-    """Dense kernel, stage 1: the same (S, R) packed intervals by testing every window pixel.
-
-    win_words : (S,) int32 first word of each window;  n_win_words : Wd (static). Each row's
-    interval runs from the leftmost to the rightmost inside pixel (the row-convex rule).
+    """Dense kernel, stage 1: the same (S, R) packed intervals by testing every window pixel
+    against the discs (:func:`discs_inside`), with the sides' crossings of each row
+    (:func:`side_crossings`) and the ends of the discs' chords that hold no pixel centre or run
+    past the image (the window holds the image's pixels only). win_words : (S,) int32 first
+    word of each window;  n_win_words : Wd (static). Each row's interval runs from the leftmost to
+    the rightmost candidate (the row-convex rule of :func:`solve_rows`).
     """
     qc = quantize(jnp, caps, q, long_side)
     rows = _window_rows(win_rows, n_win)  # (S, R)
     cols = win_words[:, None] * WORD + jnp.arange(n_win_words * WORD, dtype=jnp.int32)  # (S, X)
-    inside = parts_inside(qc, cols[:, None, :] * q, rows[:, :, None] * q)
+    inside = discs_inside(qc, cols[:, None, :] * q, rows[:, :, None] * q)
     inside = inside & (cols < width)[:, None, :]
     col = jnp.broadcast_to(cols[:, None, :], inside.shape)
     # one variadic reduction: two separate ones would make XLA materialise the pixel tests
     lo, hi = jax.lax.reduce((jnp.where(inside, col, _FAR), jnp.where(inside, col, -1)),
                             (np.int32(_FAR), np.int32(-1)),
                             lambda a, b: (jnp.minimum(a[0], b[0]), jnp.maximum(a[1], b[1])), (2,))
+    for k in range(2):  # chords the window's pixels cannot show: past the image, or holding none
+        cx, cy, r = (qc.disc[:, k, i][:, None] for i in range(3))
+        m = jnp.where(qc.drawn[:, None], r * r - jnp.clip(rows * q - cy, -_BIG, _BIG) ** 2, -1)
+        s = _isqrt(jnp, m)
+        c_lo, c_hi = -((s - cx) // q), (cx + s) // q
+        unseen = (m >= 0) & ((c_lo > c_hi) | (c_lo < 0) | (c_hi >= width))
+        lo = jnp.where(unseen, jnp.minimum(lo, jnp.clip(c_lo, -1, width)), lo)
+        hi = jnp.where(unseen, jnp.maximum(hi, jnp.clip(c_hi, -1, width)), hi)
+    first, last = side_crossings(qc, rows * q, q)
+    lo = jnp.minimum(lo, jnp.clip(first, -1, width))
+    hi = jnp.maximum(hi, jnp.clip(last, -1, width))
     return pack_intervals(jnp.minimum(lo, width), hi, rows, height, width)
 
 
@@ -528,7 +551,8 @@ def scanline_counts(caps, sil_words, roi: Roi, n_rows: int, n_words: int, q: int
 
 def dense_counts(caps, sil_words, roi: Roi, n_rows: int, n_words: int, q: int, long_side: int,
                  height, width):
-    """Same contract as :func:`scanline_counts`, by testing every ROI pixel against every part."""
+    """Same contract as :func:`scanline_counts`, by testing every ROI pixel against the discs
+    (:func:`dense_interval_stage`)."""
     win_rows, win_words = _whole_roi(caps, roi)
     packed = dense_interval_stage(caps, win_rows, win_words, n_rows, n_words, q, long_side,
                                   height, width)
