@@ -13,9 +13,10 @@ ends of the row's chords of disc0 and disc1 (in the image or not, holding a pixe
 and the crossings of the tangent quad's two sides with the row, each rounded inwards to a pixel
 centre. For the exact hull of two discs that is every pixel centre inside it (the hull's boundary
 on a row lies on a circle or a side); on the fixed-point grid it keeps slivers between parts from
-splitting a row. The quad's two chords across the discs are never tested (they
-lie inside the discs): two sides instead of four edges a row (until 2026-12-07 every part was
-tested and filled the same way; counts moved by a few edge pixels: docs/benchmarks.md).
+splitting a row. The quad's two chords across the discs are never tested (they lie inside the
+discs): two sides a row instead of four edges (until 2026-12-07 the pixel centres inside disc0,
+disc1 or the quad were filled the same way; counts moved by a few edge pixels:
+docs/benchmarks.md).
 
 Work is restricted to windows. Each capsule ``s`` is rasterised on a window of ``R`` rows starting
 at ``win_rows[s]`` and ``Wd`` 32-bit words starting at ``win_words[s]``; the windows must hold every
@@ -406,8 +407,8 @@ def side_crossings(qc: QuantCaps, py, q: int, xp=jnp):
     """Each capsule's tangent sides on fixed-point rows ``py`` (S, R), by exact integer division:
     (first, last) (S, R) int32, the first pixel column at or right of a side's crossing and the
     last at or left of one, over the sides that cross the row (``_FAR`` / ``-_FAR`` where none
-    does). The dense kernel's and the reference's form of what :func:`solve_rows` computes from
-    :class:`RowCoeffs`."""
+    does). The dense kernel's form of what :func:`solve_rows` computes from :class:`RowCoeffs`
+    (the oracle, :func:`~ipf_jax.likelihood.model_mask.model_mask`, has its own)."""
     first = xp.full(py.shape, _FAR, xp.int32)
     last = xp.full(py.shape, -_FAR, xp.int32)
     for k in SIDES:
