@@ -10,7 +10,8 @@ The measure step is the whole likelihood: FK, projection, raster, counts and wei
 
 * ``jax-scanline``, ``jax-dense``: :class:`ipf_jax.likelihood.scorer.Scorer` with either kernel;
 * ``numpy-scanline``: :mod:`ipf_jax.reference.scanline`, the vectorised NumPy baseline;
-* ``numpy-reference``: :mod:`ipf_jax.reference.likelihood`, the per-pixel NumPy oracle.
+* ``numpy-reference``: :mod:`ipf_jax.reference.likelihood`, the NumPy oracle (the model drawn row
+  by row in exact integers, :mod:`ipf_jax.likelihood.model_mask`).
 
 Each record times one call on warm code: the first call (compilation, or loading from the
 persistent cache) is timed separately as ``compile_s``; then the median of repeats (the scorer

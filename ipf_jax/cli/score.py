@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
     p.add_argument("--poses", required=True, help="CSV with one named column per DOF (poses.csv convention)")
     add_common(p, "out", help="output JSON file")
     add_common(p, "backend", default="jax", choices=["jax", "numpy", "both"],
-               help="jax (the scorer), numpy (the per-pixel reference) or both, compared")
+               help="jax (the scorer), numpy (the NumPy reference, exact integers) or both, compared")
     for key in ("resolution", "height_m", "shape_file", "up_axis"):
         add_option(p, key)
     p.set_defaults(func=run)

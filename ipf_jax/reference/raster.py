@@ -1,5 +1,5 @@
-"""Reference counts: the per-pixel model silhouette (:mod:`ipf_jax.likelihood.model_mask`) against a
-mask, int64, no region of interest."""
+"""Reference counts: the model silhouette (:mod:`ipf_jax.likelihood.model_mask`, drawn row by row in
+exact integers over the whole image) against a mask, int64, no region of interest."""
 from __future__ import annotations
 
 import numpy as np

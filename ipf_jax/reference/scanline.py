@@ -1,6 +1,6 @@
 """The scanline method in vectorised NumPy: the fair NumPy baseline for the JAX kernels.
 
-Not an oracle (that is :mod:`ipf_jax.reference.raster`, a per-pixel test on the whole image): this
+Not an oracle (that is :mod:`ipf_jax.reference.raster`, exact integers on the whole image): this
 is what a careful NumPy programmer would write for speed, with the same integers as
 :mod:`ipf_jax.likelihood.raster` (its quantisation and exact row intervals are called with ``xp=numpy``), so
 the counts are equal to the JAX kernels' and the reference's exactly. Work is vectorised over a
