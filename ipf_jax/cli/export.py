@@ -11,11 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.export import smoothed
 from ..analysis.export.axes import UNIT_SCALE
 from ..analysis.export.bvh import export_bvh
 from ..analysis.export.c3d import export_c3d
 from ..analysis.export.joints_csv import export_csv
 from ..analysis.export.trc import export_trc
+from ..data import checkpoint
 from ..data.rundir import read_run
 from ..data.runfiles import check_output_file
 from ..errors import IPFError, require
@@ -31,7 +33,7 @@ EXPORTERS = {
 from .options import add_common, add_option
 
 #: what ``track`` writes in a run folder: never overwritten by an export
-RUN_FILES = ("joints.csv", "poses.csv", "run.json", "shape.json", "checkpoint.npz", "joints_smoothed.csv")
+RUN_FILES = ("joints.csv", "poses.csv", "run.json", "shape.json", checkpoint.NAME, smoothed.NAME)
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -77,9 +79,7 @@ def run(args: argparse.Namespace) -> int:
             if fmt == "bvh":
                 raise IPFError("--smooth applies to the joints (trc, c3d, csv); bvh is written from "
                                "the poses", out)
-            from ..analysis.export.smoothed import smooth_joints
-
-            run_data = run_data._replace(joints=smooth_joints(run_data)[0])
+            run_data = run_data._replace(joints=smoothed.smooth_joints(run_data)[0])
         export(run_data, out, up=args.up_axis or up, units=args.units or units)
         extra = []
         if fmt == "trc":  # OpenSim's marker set and IK setup for it (docs/export.md)

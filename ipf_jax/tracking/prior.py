@@ -32,8 +32,6 @@ an IPF frame and 5 % of a factored-IPF frame (``benchmarks/frame_profile.py``, s
 """
 from __future__ import annotations
 
-from typing import Callable
-
 import jax.numpy as jnp
 import numpy as np
 
@@ -139,23 +137,11 @@ def upright_to_camera(particles: np.ndarray, shape_values: np.ndarray, up: np.nd
     :func:`~ipf_jax.geometry.kinematics.particles_as_rows`: 0.25 /
     0.9 / 4.0 ms for 64 / 650 / 6561 particles against the NumPy reference's 1.6 / 2.7 / 9.8 on a
     2-core EPYC; tests/test_tracker.py checks it against :func:`lean_angles`."""
-    return upright_started(particles, shape_values, up, centre, sigma_deg)()
-
-
-def upright_started(particles: np.ndarray, shape_values: np.ndarray, up: np.ndarray,
-                    centre: np.ndarray, sigma_deg: float) -> Callable[[], np.ndarray]:
-    """:func:`upright_to_camera` with its compiled call dispatched now and read when the returned
-    function is called: the tracker starts it before a measure step's counts, so the device
-    computes it while the host plans the raster's windows instead of after the counts
-    (docs/benchmarks.md)."""
     n = len(particles)
     if sigma_deg <= 0 or n == 0:
-        return lambda: np.ones(n)
+        return np.ones(n)
     q_t, sv, n = particles_as_rows(particles, shape_values)
     out = _upright_jit(q_t, sv, np.asarray(up, np.float32), np.asarray(centre, np.float32),
                        np.float32(1.0 / np.deg2rad(sigma_deg)))
-
-    def finish() -> np.ndarray:
-        factors = np.exp(-np.asarray(out, np.float64)[:n])
-        return np.where(np.isfinite(factors), factors, 0.0)  # a particle with NaNs: no weight
-    return finish
+    factors = np.exp(-np.asarray(out, np.float64)[:n])
+    return np.where(np.isfinite(factors), factors, 0.0)  # a particle with NaNs: no weight

@@ -80,7 +80,7 @@ from .loss import Coverage, coverage
 from .options import settings_doc
 from .origin import FrameAnchor, observe_anchor, root_shift
 from .prefetch import Prefetch
-from .prior import level_pelvis, upright_started
+from .prior import level_pelvis, upright_to_camera
 from .recovery import GLOBAL, recover
 from .settings import DEFAULT_FPS, DEFAULT_RESOLUTION, TrackSettings, init_settings
 from .shape_fit import Scene, calibrate_at_start, shape_doc, spread_frames
@@ -344,40 +344,31 @@ class Tracker:
         """``fn(particles (N, D), shape values (P,) or (N, P)) -> (N,)`` factors of the prior that
         the person stands upright along the line of sight of the one camera (:mod:`.prior`);
         None with several cameras or ``lean_prior_deg`` 0."""
-        start = self._lean_started
-        return None if start is None else (lambda particles, values: start(particles, values)())
-
-    @property
-    def _lean_started(self):
-        """:attr:`lean_prior` dispatched: ``fn(particles, values) -> finish``, ``finish() ->
-        (N,)`` factors (:func:`~ipf_jax.tracking.prior.upright_started`); None as there."""
         sigma = self.settings.lean_prior_deg
         if sigma <= 0 or len(self.cameras) != 1:
             return None
         centre = self.cameras[0].centre
-        return lambda particles, values: upright_started(particles, values, self.U, centre, sigma)
+        return lambda particles, values: upright_to_camera(particles, values, self.U, centre, sigma)
 
     def measure(self, obs: Observation, shape: BodyShape | None = None, log: list | None = None,
                 pad: bool = False):
         """``fn(particles, shape=None) -> weights`` on ``obs`` (times the priors, :mod:`.prior`);
         with ``log`` every call's particles and counts are appended to it (the loss test reads the
         estimate's there); ``pad``: see :meth:`~ipf_jax.likelihood.scorer.Scorer.counts`."""
-        lean = self._lean_started
+        lean = self.lean_prior
 
         def fn(particles: np.ndarray, shp: BodyShape | None = None) -> np.ndarray:
             s = shp or shape
             if s is not None and s is not self.scorer.shape:
                 self.scorer.set_shape(s)
-            # the lean prior's call is dispatched first: the device runs it beside the host's work
-            upright = None if lean is None else lean(particles, (s or self.scorer.shape).values)
             counts = self.scorer.counts(particles, obs, pad=pad)
             if log is not None:
                 log.append((np.asarray(particles), counts))
             w = weights_from_counts(counts, obs.active)[0]
             if self.settings.pelvis_prior_deg > 0:  # a weak prior that the pelvis is level
                 w = w * level_pelvis(particles, self.settings.pelvis_prior_deg)
-            if upright is not None:  # upright along one camera's line of sight
-                w = w * upright()
+            if lean is not None:  # upright along one camera's line of sight
+                w = w * lean(particles, (s or self.scorer.shape).values)
             return w
         return fn
 
