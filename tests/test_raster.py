@@ -1,4 +1,6 @@
 """The raster stage is exact: JAX scanline == JAX dense == NumPy reference, pixel for pixel counts."""
+import math
+
 import cv2
 import jax
 import jax.numpy as jnp
@@ -248,3 +250,24 @@ def test_pixels_are_those_inside_the_true_capsule_up_to_its_boundary():
         clear = np.abs(dist - r) > 1.0
         drawn = model_mask(caps.astype(np.float32), h, w)
         np.testing.assert_array_equal(drawn[clear], (dist <= r)[clear])
+
+
+@pytest.mark.parametrize("xp", [np, jnp], ids=["numpy", "jax"])
+def test_integer_root_and_rounding_are_exact(xp):
+    """The raster's two float shortcuts: ``_isqrt`` is floor(sqrt) on every square's neighbours
+    and random values below 2**30 (-1 below 0); ``_rint`` is round-half-even, ties included."""
+    from ipf_jax.likelihood.raster import _isqrt, _rint
+
+    rng = np.random.default_rng(7)
+    k = np.arange(1 << 15, dtype=np.int64)
+    m = np.concatenate([k * k - 1, k * k, k * k + 1, rng.integers(-50, 1 << 30, 200_000)])
+    m = m[m < (1 << 30)].astype(np.int32)
+    want = np.array([math.isqrt(int(v)) if v >= 0 else -1 for v in m])
+    fn = jax.jit(lambda a: _isqrt(jnp, a)) if xp is jnp else (lambda a: _isqrt(np, a))
+    np.testing.assert_array_equal(np.asarray(fn(xp.asarray(m))), want)
+
+    x = np.concatenate([rng.uniform(-(1 << 22) + 1, (1 << 22) - 1, 200_000),
+                        np.arange(-4000, 4000) + 0.5, np.arange(-4000, 4000) - 0.49999997,
+                        [0.0, -0.0, 0.5, -0.5, 1.5, -2.5]]).astype(np.float32)
+    fn = jax.jit(lambda a: _rint(jnp, a)) if xp is jnp else (lambda a: _rint(np, a))
+    np.testing.assert_array_equal(np.asarray(fn(xp.asarray(x))), np.round(x).astype(np.int32))

@@ -194,11 +194,25 @@ def _proper_quad(corners):
     return (_cross(*d1, *d2) > 0) & convex
 
 
+_ROUNDER = np.float32(3 << 22)  # 1.5 * 2**23: float32 sums in [2**23, 2**24) are whole numbers
+
+
+def _rint(xp, x):
+    """round-half-even(x) as int32 for float32 ``|x| < 2**22``: the bits of ``x + 1.5 * 2**23``,
+    whose exponent is then fixed, less those of ``1.5 * 2**23``. Equal to ``round(x).astype(int32)``
+    (one IEEE addition rounds to nearest even) without the saturating conversion XLA emits for a
+    float-to-int cast (a NaN test, a range test and two selects a vector; measured:
+    docs/benchmarks.md)."""
+    y = (x + _ROUNDER).astype(xp.float32)
+    bits = jax.lax.bitcast_convert_type(y, jnp.int32) if xp is jnp else np.asarray(y).view(np.int32)
+    return bits - np.int32(0x4B400000)
+
+
 def _isqrt(xp, m):
     """floor(sqrt(m)) for int32 0 <= m < 2**30, exact, and -1 for m < 0: nearest integer of the
     float root, then one integer check (the float root is within 0.01 of the truth at these
-    magnitudes)."""
-    s = xp.round(xp.sqrt(xp.maximum(m, 0).astype(xp.float32))).astype(xp.int32)
+    magnitudes, below 2**15)."""
+    s = _rint(xp, xp.sqrt(xp.maximum(m, 0).astype(xp.float32)))
     return xp.where(s * s > m, s - 1, s)
 
 
@@ -293,7 +307,7 @@ def solve_rows(rc: RowCoeffs, py, q: int, width, at, xp=jnp):
     for k in range(2):
         ex, n0, ad, y_lo, y_hi = (at(a) for a in rc.side[k])
         n = ex * py + n0
-        f = xp.clip(xp.round(n.astype(xp.float32) * at(rc.inv_d[k])), -f_max, f_max).astype(xp.int32)
+        f = _rint(xp, xp.clip(n.astype(xp.float32) * at(rc.inv_d[k]), -f_max, f_max))  # f_max whole
         p = ad * f
         crosses = (py >= y_lo) & (py <= y_hi)
         lo = xp.where(crosses, xp.minimum(lo, xp.where(p < n, f + 1, f)), lo)  # ceil(n / ad)
@@ -370,9 +384,12 @@ def list_intervals(rc: RowCoeffs, rows: RowList, q: int, height, width):
 
     Particles last, the row loop vectorises over particles without a tail, and each entry's
     coefficients are one contiguous row of each (S, B) field (the gather fuses into the loop);
-    they are read, not recomputed (measured: docs/benchmarks.md).
+    they are read, not recomputed (measured: docs/benchmarks.md). The list's capsules are in
+    range, so the gather clamps (``mode="clip"``, XLA's own rule: one scalar clamp a row) rather
+    than fills: a filling gather guarded each of the 18 loads of every row with a branch and spilled
+    the loop's registers (1.1x the frame's count time with APF and four cameras).
     """
-    entry = jax.tree.map(lambda a: jnp.take(a, rows.seg, axis=-2), rc)  # batch (T, B)
+    entry = jax.tree.map(lambda a: jnp.take(a, rows.seg, axis=-2, mode="clip"), rc)  # batch (T, B)
     lo, hi = solve_rows(entry, (rows.row * q)[:, None], q, width, lambda a: a)
     return pack_intervals(lo, hi, rows.row[:, None], height, width)
 
