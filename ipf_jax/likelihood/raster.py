@@ -103,17 +103,17 @@ def quantize_fields(xp, field, q: int, long_side: int) -> QuantFields:
     """Capsule records -> :class:`QuantFields` (shared by JAX and NumPy); ``field(i)`` returns the
     records' field ``i`` (0 .. 14) as an array of the batch shape.
 
-    Only exact float32 operations (clip, multiply by a power of two, round-half-even) are used
-    before the cast, so both array libraries produce identical integers.
+    Only exact float32 operations (clip, multiply by a power of two, round-half-even by
+    :func:`_rint`) give the integers, so both array libraries produce identical ones. The records
+    are finite (the scorer refuses non-finite particles and the projection bounds its divisions).
     """
     lo, hi, r_hi = _guard(long_side)
 
-    def coord(i):
-        return xp.round(xp.clip(field(i).astype(xp.float32), lo, hi) * np.float32(q)).astype(xp.int32)
+    def coord(i):  # |coordinate| <= 1.5 * 2048 * 4 on the grid: well inside _rint's range
+        return _rint(xp, xp.clip(field(i).astype(xp.float32), lo, hi) * np.float32(q))
 
     def radius(i):
-        r = xp.clip(field(i).astype(xp.float32), np.float32(0), r_hi)
-        return xp.round(r * np.float32(q)).astype(xp.int32)
+        return _rint(xp, xp.clip(field(i).astype(xp.float32), np.float32(0), r_hi) * np.float32(q))
 
     disc = ((coord(0), coord(1), radius(2)), (coord(3), coord(4), radius(5)))
     corners = tuple((coord(6 + 2 * k), coord(7 + 2 * k)) for k in range(4))
