@@ -275,8 +275,10 @@ def test_integer_root_and_rounding_are_exact(xp):
 
 @pytest.mark.parametrize("height, width", [(240, 320), (1536, 2048)])
 def test_row_solve_equals_exact_integers_on_any_row(height, width):
-    """:func:`solve_rows` (int32, rows clamped once, float shortcuts) equals the same rule in exact
-    int64 arithmetic on rows inside, beside and far outside the image, at both grid scales."""
+    """:func:`solve_rows` (int32, float shortcuts) equals the oracle's exact int64 rows
+    (:func:`~ipf_jax.likelihood.model_mask.capsule_rows`) on rows inside, beside and far outside
+    the image, at both grid scales."""
+    from ipf_jax.likelihood.model_mask import capsule_rows
     from ipf_jax.likelihood.raster import as_fields, quantize, row_coeffs, solve_rows
 
     q, L = quant_scale(height, width), max(height, width)
@@ -284,29 +286,12 @@ def test_row_solve_equals_exact_integers_on_any_row(height, width):
                            far_caps(height, width)])
     qc = quantize(np, caps.astype(np.float32), q, L)
     rows = np.concatenate([np.arange(-4 * L, 5 * L, max(1, L // 160)), [-10**6, -3 * L - 1, 10**6]])
-    py = (rows * q).astype(np.int64)[None, :]
     lo, hi = solve_rows(row_coeffs(np, as_fields(qc), q), (rows * q).astype(np.int32)[None, :], q,
                         width, lambda a: a[..., None], np)
-
-    want_lo = np.full((len(caps), len(rows)), 1 << 40)
-    want_hi = np.full((len(caps), len(rows)), -(1 << 40))
-    disc, quad = qc.disc.astype(np.int64), qc.quad.astype(np.int64)
-    for k in range(2):
-        cx, cy, r = (disc[:, k, i][:, None] for i in range(3))
-        m = np.where(qc.drawn[:, None], r * r - (py - cy) ** 2, -1)
-        s = np.floor(np.sqrt(np.maximum(m, 0).astype(np.float64))).astype(np.int64)
-        s = np.where((s + 1) ** 2 <= m, s + 1, np.where(s * s > m, s - 1, s))
-        ok = m >= 0
-        want_lo = np.where(ok, np.minimum(want_lo, -((s - cx) // q)), want_lo)
-        want_hi = np.where(ok, np.maximum(want_hi, (cx + s) // q), want_hi)
-    for k in (1, 3):  # the tangent sides: the crossing's ceiling and floor, exactly
-        ax, ay = quad[:, k, 0][:, None], quad[:, k, 1][:, None]
-        bx, by = quad[:, (k + 1) % 4, 0][:, None], quad[:, (k + 1) % 4, 1][:, None]
-        rise = by - ay
-        num, den = ax * rise + (bx - ax) * (py - ay), q * rise
-        num, den = np.where(den < 0, -num, num), np.maximum(np.abs(den), 1)
-        crosses = qc.quad_on[:, None] & (rise != 0) & (py >= np.minimum(ay, by)) & (py <= np.maximum(ay, by))
-        want_lo = np.where(crosses, np.minimum(want_lo, -((-num) // den)), want_lo)
-        want_hi = np.where(crosses, np.maximum(want_hi, num // den), want_hi)
-    np.testing.assert_array_equal(lo, np.clip(want_lo, -1, width))
-    np.testing.assert_array_equal(hi, np.clip(want_hi, -1, width))
+    row_y = rows.astype(np.int64) * q
+    disc, quad = qc.disc.astype(np.int64).tolist(), qc.quad.astype(np.int64).tolist()
+    for s in range(len(caps)):
+        want_lo, want_hi = (capsule_rows(disc[s], quad[s], bool(qc.quad_on[s]), row_y, q)
+                            if qc.drawn[s] else (np.full(len(rows), width), np.full(len(rows), -1)))
+        np.testing.assert_array_equal(lo[s], np.clip(want_lo, -1, width), err_msg=f"capsule {s}")
+        np.testing.assert_array_equal(hi[s], np.clip(want_hi, -1, width), err_msg=f"capsule {s}")

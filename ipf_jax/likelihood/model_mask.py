@@ -31,32 +31,40 @@ def _chord(cx: int, cy: int, r: int, row_y: np.ndarray, q: int):
     return first, last, m >= 0
 
 
+def capsule_rows(disc, quad, quad_on: bool, row_y: np.ndarray, q: int) -> tuple:
+    """One drawn capsule's (first, last) pixel columns on fixed-point rows ``row_y`` (int64),
+    exact and unclipped (first > last on a row it does not cover). ``disc``: its two quantised
+    (cx, cy, r); ``quad``: its four quantised corners; ``quad_on``: whether its quad is drawn."""
+    far = 1 << 40
+    lo, hi = np.full(row_y.shape, far), np.full(row_y.shape, -far)
+    for cx, cy, r in disc:
+        first, last, meets = _chord(cx, cy, r, row_y, q)
+        lo, hi = np.where(meets, np.minimum(lo, first), lo), np.where(meets, np.maximum(hi, last), hi)
+    if quad_on:
+        for k in SIDES:
+            (ax, ay), (bx, by) = quad[k], quad[(k + 1) % 4]
+            if ay == by:
+                continue  # a flat side crosses no row (its ends are on the discs)
+            rows = (row_y >= min(ay, by)) & (row_y <= max(ay, by))
+            # where the side's line meets row y: x = ax + (bx - ax) (y - ay) / (by - ay)
+            num, den = ax * (by - ay) + (bx - ax) * (row_y - ay), q * (by - ay)
+            num, den = (-num, -den) if den < 0 else (num, den)
+            lo = np.where(rows, np.minimum(lo, -(-num // den)), lo)  # first column at or right
+            hi = np.where(rows, np.maximum(hi, num // den), hi)  # last column at or left
+    return lo, hi
+
+
 def model_mask(caps: np.ndarray, height: int, width: int) -> np.ndarray:
     """(S, 15) float32 capsule records -> (height, width) bool model silhouette."""
     q = quant_scale(height, width)
     qc = quantize(np, np.asarray(caps, np.float32), q, max(height, width))
     disc, quad = qc.disc.astype(np.int64).tolist(), qc.quad.astype(np.int64).tolist()
     row_y = np.arange(height, dtype=np.int64) * q
-    far = 1 << 40
     mask = np.zeros((height, width), bool)
     for s in range(len(disc)):
         if not qc.drawn[s]:
             continue
-        lo, hi = np.full(height, far), np.full(height, -far)
-        for cx, cy, r in disc[s]:
-            first, last, meets = _chord(cx, cy, r, row_y, q)
-            lo, hi = np.where(meets, np.minimum(lo, first), lo), np.where(meets, np.maximum(hi, last), hi)
-        if qc.quad_on[s]:
-            for k in SIDES:
-                (ax, ay), (bx, by) = quad[s][k], quad[s][(k + 1) % 4]
-                if ay == by:
-                    continue  # a flat side crosses no row (its ends are on the discs)
-                rows = (row_y >= min(ay, by)) & (row_y <= max(ay, by))
-                # where the side's line meets row y: x = ax + (bx - ax) (y - ay) / (by - ay)
-                num, den = ax * (by - ay) + (bx - ax) * (row_y - ay), q * (by - ay)
-                num, den = (-num, -den) if den < 0 else (num, den)
-                lo = np.where(rows, np.minimum(lo, -(-num // den)), lo)  # first column at or right
-                hi = np.where(rows, np.maximum(hi, num // den), hi)  # last column at or left
+        lo, hi = capsule_rows(disc[s], quad[s], bool(qc.quad_on[s]), row_y, q)
         lo, hi = np.clip(lo, 0, width), np.clip(hi, -1, width - 1)
         for row in np.nonzero(lo <= hi)[0]:
             mask[row, lo[row]:hi[row] + 1] = True
