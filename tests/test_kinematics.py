@@ -119,3 +119,11 @@ def test_frame_axes_places_points_as_the_whole_forward_kinematics():
     per = frame_axes(q.T, bodies, up, ["left_shank"])
     np.testing.assert_allclose(np.stack(place(per, "left_shank", (0, 0, "-shank"), bodies), -1),
                                whole[:, POINT_INDEX["left_ankle"]], atol=1e-12)
+
+
+def test_the_trackers_joint_points_are_forward_kinematics_points_bit_for_bit():
+    """``joint_points`` (the tracker's estimate every frame) places the points alone, with the same
+    operations as :func:`forward_kinematics`: the same float64 numbers, not merely close ones."""
+    U = up_rotation("-y")
+    for q in random_poses(50, seed=3):
+        assert np.array_equal(ref.joint_points(q, SHAPE.values, U), ref.forward_kinematics(q, SHAPE.values, U).points)

@@ -359,3 +359,30 @@ def test_particle_rows_keep_every_particle_and_pad_with_the_first(n, per_particl
         assert np.array_equal(sv_t[:, n:], np.repeat(sv_t[:, :1], block - n, axis=1))
     else:
         assert np.array_equal(sv_t, sv.astype(np.float32))
+
+
+@settings(PROPERTY)
+@given(values=st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=1, max_size=60),
+       decimals=st.integers(0, 9))
+def test_run_rows_are_formatted_as_numpy_scalars_format_them(values, decimals):
+    """A run CSV's values, formatted from Python floats for speed, read exactly as NumPy's float64
+    scalars formatted them before (``nan`` for every value that is not finite; -0.0, ties, huge and
+    tiny values included)."""
+    from ipf_jax.data.runfiles import _fmt
+
+    x = np.array(values, np.float64)
+    numpy_scalars = ",".join("nan" if not np.isfinite(v) else f"{v:.{decimals}f}" for v in x)
+    assert _fmt(x, decimals) == numpy_scalars
+    assert _fmt(x.reshape(-1, 1), decimals) == numpy_scalars  # (J, 3) points are written raveled
+
+
+@settings(PROPERTY)
+@given(values=st.lists(st.floats(0.0, 1e3, allow_nan=False) | st.just(float("nan")), min_size=1,
+                       max_size=40))
+def test_the_confidence_median_is_numpys(values):
+    """The tracker's median of its last weights is ``np.median``'s number (NaN when one is NaN)."""
+    from ipf_jax.tracking.tracker import median
+
+    expected = float(np.median(values))
+    got = median(values)
+    assert got == expected or (np.isnan(got) and np.isnan(expected))

@@ -180,10 +180,10 @@ def test_a_stop_between_a_frame_and_its_rows_resumes_byte_identical(scene, tmp_p
     track(MemoryDataset(cams, masks, fps=20.0), full, settings, progress=False)
     draw_ahead = Tracker.draw_ahead
 
-    def stop_after_frame_4(self, state, frame):
-        if frame == 5:
+    def stop_after_frame_4(self, state, frames):
+        if frames[:1] == (5,):  # frame 4 is measured, its draws for frames 5 and 6 are due
             raise KeyboardInterrupt
-        return draw_ahead(self, state, frame)
+        return draw_ahead(self, state, frames)
 
     monkeypatch.setattr(Tracker, "draw_ahead", stop_after_frame_4)
     with pytest.raises(KeyboardInterrupt):

@@ -6,6 +6,7 @@ every frame it finished, and a resumed run produces byte-identical files (see :m
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -21,7 +22,11 @@ POSE_COLUMNS = ["frame", "time_s"] + list(DOF_NAMES)
 
 
 def _fmt(values, decimals: int = 6) -> str:
-    return ",".join("nan" if not np.isfinite(v) else f"{v:.{decimals}f}" for v in values)
+    """Values with ``decimals``, ``nan`` when not finite: Python floats, formatted as NumPy's
+    float64 scalars format (a frame's 88 values in ~20 us instead of ~110)."""
+    spec = f".{decimals}f"
+    return ",".join(format(v, spec) if math.isfinite(v) else "nan"
+                    for v in np.asarray(values, np.float64).ravel().tolist())
 
 
 def format_row(frame: int, time_s: float, values, decimals: int = 6) -> str:

@@ -18,7 +18,7 @@ from .camera import Z_NEAR, Camera
 from .capsule2d import capsule_outline
 from .kinematics import Pose3D
 
-__all__ = ["forward_kinematics", "project_points", "project_spheres", "project_capsules"]
+__all__ = ["forward_kinematics", "joint_points", "project_points", "project_spheres", "project_capsules"]
 
 
 def _rotation(axis: str, angle: float) -> np.ndarray:
@@ -71,8 +71,25 @@ def _body(shape_bytes: bytes) -> _Body:
 
 def forward_kinematics(q, shape_values, up) -> Pose3D:
     """q : (D,), shape_values : (P,), up : (3, 3) -> Pose3D of float64 arrays (one particle)."""
-    q = np.asarray(q, float)
     body = _body(np.ascontiguousarray(shape_values, float).tobytes())
+    world = _world(np.asarray(q, float), body, up)
+
+    def place(placed):
+        return np.array([(world[frame] @ h)[:3] for frame, h in placed])
+
+    return Pose3D(place(body.points), place(body.seg_a), place(body.seg_b), body.seg_r.copy())
+
+
+def joint_points(q, shape_values, up) -> np.ndarray:
+    """(J, 3) float64: :func:`forward_kinematics`'s ``points`` alone (the same operations, so the
+    same numbers), without placing the capsule ends (the tracker's estimate every frame)."""
+    body = _body(np.ascontiguousarray(shape_values, float).tobytes())
+    world = _world(np.asarray(q, float), body, up)
+    return np.array([(world[frame] @ h)[:3] for frame, h in body.points])
+
+
+def _world(q: np.ndarray, body: _Body, up) -> dict[str, np.ndarray]:
+    """Every frame's 4x4 homogeneous transform to the world, walked down the tree."""
     world: dict[str, np.ndarray] = {}
     for f in FRAMES:
         R = np.eye(3)
@@ -82,11 +99,7 @@ def forward_kinematics(q, shape_values, up) -> Pose3D:
             world[f.name] = _homogeneous(np.asarray(up, float) @ R, q[:3])
         else:
             world[f.name] = world[f.parent] @ _homogeneous(R, body.origins[f.name])
-
-    def place(placed):
-        return np.array([(world[frame] @ h)[:3] for frame, h in placed])
-
-    return Pose3D(place(body.points), place(body.seg_a), place(body.seg_b), body.seg_r.copy())
+    return world
 
 
 def project_points(cam: Camera, X: np.ndarray):

@@ -59,7 +59,7 @@ from ..filters import registry
 from ..filters.base import Filter, FilterState, best_index
 from ..filters.posture import Body
 from ..geometry.camera import Z_NEAR, Camera
-from ..geometry.host import forward_kinematics, project_points
+from ..geometry.host import joint_points, project_points
 from ..geometry.placement import HEIGHT_MIN_FRAMES, height_from_view
 from ..geometry.rays import blobs, camera_rays
 from ..geometry.world import AXES, contradicted_up, detect_up_axis, up_rotation
@@ -176,6 +176,16 @@ def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
                        "cameras in another order, or wrong --up)", cam.source or where)
 
 
+def median(values) -> float:
+    """``np.median`` of a few floats, the same number (NaN when one is NaN), without its ~0.1 ms of
+    array overhead (every tracked frame takes the median of its last weights)."""
+    v = sorted(float(x) for x in values)
+    if any(x != x for x in v):
+        return float("nan")
+    m = len(v) // 2
+    return v[m] if len(v) % 2 else (v[m - 1] + v[m]) / 2
+
+
 @Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
 def frame_key(key: jax.Array, frame: int, salt: int) -> jax.Array:
     """The key of stage ``salt`` of ``frame``: ``fold_in(fold_in(key, frame), salt)``, in one
@@ -240,7 +250,7 @@ class Tracker:
         self.cameras, self.scales = scoring_cameras(dataset.cameras, settings.resolution)
         self.filter_hook = None  # optional Filter -> Filter wrapper (e.g. compare's step timing)
         self._filters: dict[int, tuple[BodyShape | None, Filter]] = {}
-        self._ahead: tuple[int, jax.Array, object] | None = None  # see draw_ahead
+        self._ahead: dict[int, tuple[jax.Array, object]] = {}  # see draw_ahead
         # padding against calls and programs: docs/benchmarks.md
         chunk, block = pick_chunking(self.filter.calls, chunk=settings.chunk)
         self.scorer = Scorer(self.cameras, self.base_shape, self.U, kernel=settings.kernel,
@@ -499,24 +509,35 @@ class Tracker:
         by the body origin's shift. Returns the state and the evaluations spent."""
         moved = FilterState(state.filter.particles + np.r_[shift, np.zeros(NUM_DOF - 3)],
                             state.filter.weights)
-        ahead, self._ahead = self._ahead, None
-        key, drawn = ((ahead[1], {"drawn": ahead[2]}) if ahead is not None and ahead[0] == frame
+        given = self._ahead.pop(frame, None)
+        key, drawn = ((given[0], {"drawn": given[1]}) if given is not None
                       else (self.frame_key(frame), {}))
         filt, info = self.filter_for(state.shape).step(key, moved, self.measure(seen.obs, state.shape, log),
                                                        **drawn)
         return state._replace(filter=filt), info.evaluations
 
-    def draw_ahead(self, state: TrackState, frame: int) -> None:
-        """Dispatch ``frame``'s random draws now (when the filter has them, see
-        :class:`~ipf_jax.filters.base.Filter`): they are computed while the host writes this frame's
-        files and reads the next masks. A cache of a pure function of the frame's key: the step
-        uses it only for that frame, so the numbers are the ones it would have drawn."""
+    def draw_ahead(self, state: TrackState, frames: tuple[int, ...]) -> None:
+        """Dispatch the random draws of ``frames`` now (when the filter has them, see
+        :class:`~ipf_jax.filters.base.Filter`), those already dispatched kept. A cache of a pure
+        function of each frame's key: the step uses it only for that frame, so the numbers are the
+        ones it would have drawn.
+
+        :meth:`track_frame` asks for the next two frames once its own is measured: the next
+        frame's draws were dispatched a frame earlier and are ready when its step starts, and the
+        one after computes while the device would be idle (the host checking, estimating and
+        writing this frame, placing and selecting the next). Dispatched for the next frame only,
+        after this one's rows, the step waited 0.6-1.0 ms a frame for them with IPF and one camera
+        (docs/benchmarks.md)."""
         filt = self.filter_for(state.shape)
         if state.filter is None or filt.draws is None:
-            self._ahead = None
+            self._ahead = {}
             return
-        key = self.frame_key(frame)
-        self._ahead = (frame, key, filt.draws(key))
+        ahead = {f: self._ahead[f] for f in frames if f in self._ahead}
+        for f in frames:
+            if f not in ahead:
+                key = self.frame_key(f)
+                ahead[f] = (key, filt.draws(key))
+        self._ahead = ahead
 
     def check(self, state: TrackState, frame: int, seen: Seen, status: str, info: dict,
               log: list) -> tuple[TrackState, str, float]:
@@ -525,7 +546,7 @@ class Tracker:
         weighs more; a frame still failing the loss test then is ``lost``."""
         s = self.settings
         w_best = float(state.filter.weights[best_index(state.filter.weights)])
-        ref = float(np.median(state.history)) if state.history else w_best
+        ref = median(state.history) if state.history else w_best
         conf = w_best / ref if ref > 0 else 0.0
         low = state.low_streak + 1 if conf < s.confidence_drop else 0
         state = state._replace(low_streak=low)
@@ -629,14 +650,18 @@ class Tracker:
                                recoveries=(*state.recoveries, record))
         return state, ("reinit" if accepted else "reinit-rejected"), log
 
-    def track_frame(self, state: TrackState, frame: int, seen: Seen) -> tuple[TrackState, FrameRecord]:
-        """One frame: place, initialise or step (select, predict, measure), estimate, check."""
+    def track_frame(self, state: TrackState, frame: int, seen: Seen,
+                    ahead: tuple[int, ...] = ()) -> tuple[TrackState, FrameRecord]:
+        """One frame: place, initialise or step (select, predict, measure), estimate, check.
+        ``ahead``: the next frames, whose draws are dispatched once this one is measured
+        (:meth:`draw_ahead`)."""
         self.scorer.new_frame()
         time_s = frame / self.fps
         info = {"frame": int(frame), "time_s": round(time_s, 6), "skipped_cameras": [
             self.dataset.cameras[i].name for i in range(len(seen.masks)) if not seen.obs.active[i]],
             "mask_quality": seen.quality}
         if not seen.person:
+            self.draw_ahead(state, ahead)
             info.update(status="missing", weight=None, confidence=None, evaluations=0)
             return state, FrameRecord(frame, time_s, np.full(NUM_DOF, np.nan),
                                       np.full((NUM_POINTS, 3), np.nan), info)
@@ -647,12 +672,13 @@ class Tracker:
             state, status, evals = self.start(state, frame, seen, log), "init", 0
         else:
             (state, evals), status = self.step(state, frame, seen, shift, log), "tracked"
+        self.draw_ahead(state, ahead)  # the device is idle while the host checks, estimates, writes
         state, status, conf = self.check(state, frame, seen, status, info, log)
         best = best_index(state.filter.weights)  # the estimate: the heaviest particle
         w_best = float(state.filter.weights[best])
         state = state._replace(history=(*state.history, w_best)[-HISTORY:])
         pose = state.filter.particles[best]
-        points = forward_kinematics(pose, state.shape.values, self.U).points
+        points = joint_points(pose, state.shape.values, self.U)
         if status == "init":  # one plane for the whole run (single camera, see origin)
             state = state._replace(anchor_height=float(self.U[:, 2] @ points[0]))
         info.update(status=status, weight=round(w_best, 6), confidence=round(conf, 4),
@@ -700,11 +726,10 @@ class Tracker:
             for frame in bar:
                 t0 = time.perf_counter()
                 seen = reader.take(frame)
-                if state.next_index + 1 < len(self.frames):
-                    reader.start(self.frames[state.next_index + 1])
-                done, rec = self.track_frame(state, frame, seen)  # ``state``: until the rows are written
-                if state.next_index + 1 < len(self.frames):
-                    self.draw_ahead(done, self.frames[state.next_index + 1])
+                ahead = tuple(self.frames[state.next_index + 1:state.next_index + 3])
+                if ahead:
+                    reader.start(ahead[0])
+                done, rec = self.track_frame(state, frame, seen, ahead)  # ``state``: until the rows are written
                 joints_csv.write(frame, rec.time_s, rec.points.ravel())
                 poses_csv.write(frame, rec.time_s, rec.pose)
                 rec.info["seconds"] = round(time.perf_counter() - t0, 4)
