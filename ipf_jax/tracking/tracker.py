@@ -729,7 +729,8 @@ class Tracker:
                 ahead = tuple(self.frames[state.next_index + 1:state.next_index + 3])
                 if ahead:
                     reader.start(ahead[0])
-                done, rec = self.track_frame(state, frame, seen, ahead)  # ``state``: until the rows are written
+                # ``state`` stays the last frame's until the rows are written
+                done, rec = self.track_frame(state, frame, seen, ahead)
                 joints_csv.write(frame, rec.time_s, rec.points.ravel())
                 poses_csv.write(frame, rec.time_s, rec.pose)
                 rec.info["seconds"] = round(time.perf_counter() - t0, 4)
