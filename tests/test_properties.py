@@ -340,25 +340,29 @@ def test_lean_angles_turn_with_the_scene_and_the_compiled_prior_matches(seed, tu
 
 @settings(PROPERTY)
 @given(n=st.integers(1, 300), per_particle=st.booleans(), seed=st.integers(0, 2**16))
-def test_particle_rows_keep_every_particle_and_pad_with_the_first(n, per_particle, seed):
-    """The host layout of the particle-last kernels: the columns kept are the particles in order
-    (float32), the padding copies the first particle (and its body), the width a power of two."""
-    from ipf_jax.geometry.kinematics import MIN_BLOCK, particles_as_rows
+def test_padded_particles_keep_every_particle_and_pad_with_the_first(n, per_particle, seed):
+    """The host layout of the particle-last kernels: the rows kept are the particles in order
+    (float32), the padding copies the first particle (and its body), the length a power of two;
+    inside a kernel ``rows_of`` puts the particle axis last."""
+    from ipf_jax.geometry.kinematics import MIN_BLOCK, padded_particles, rows_of
 
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n, 31))
     sv = rng.uniform(0.05, 0.5, size=(n, 7) if per_particle else (7,))
-    q_t, sv_t, kept = particles_as_rows(q, sv)
-    block = q_t.shape[1]
+    qp, svp, kept = padded_particles(q, sv)
+    block = qp.shape[0]
     assert kept == n and block >= max(n, MIN_BLOCK) and block & (block - 1) == 0
     assert block < 2 * max(n, MIN_BLOCK)
-    assert q_t.dtype == np.float32 and np.array_equal(q_t[:, :n], q.T.astype(np.float32))
-    assert np.array_equal(q_t[:, n:], np.repeat(q_t[:, :1], block - n, axis=1))
+    assert qp.dtype == np.float32 and np.array_equal(qp[:n], q.astype(np.float32))
+    assert np.array_equal(qp[n:], np.repeat(qp[:1], block - n, axis=0))
     if per_particle:
-        assert sv_t.shape == (7, block) and np.array_equal(sv_t[:, :n], sv.T.astype(np.float32))
-        assert np.array_equal(sv_t[:, n:], np.repeat(sv_t[:, :1], block - n, axis=1))
+        assert svp.shape == (block, 7) and np.array_equal(svp[:n], sv.astype(np.float32))
+        assert np.array_equal(svp[n:], np.repeat(svp[:1], block - n, axis=0))
     else:
-        assert np.array_equal(sv_t, sv.astype(np.float32))
+        assert np.array_equal(svp, sv.astype(np.float32))
+    q_t, sv_t = rows_of(jnp.asarray(qp), jnp.asarray(svp))
+    assert np.array_equal(np.asarray(q_t), qp.T)
+    assert np.array_equal(np.asarray(sv_t), svp.T if per_particle else svp)
 
 
 @settings(PROPERTY)

@@ -188,28 +188,38 @@ SEGMENT_ENDS = np.array([[CAPSULE_ENDS.index(_end_key(s.frame, e)) for e in (s.a
 SEGMENT_RADII = np.array([[SHAPE_INDEX[s.r_a], SHAPE_INDEX[s.r_b]] for s in SEGMENTS])
 
 
-#: smallest padded host call of a particle-last kernel (:func:`particles_as_rows`); calls are padded
+#: smallest padded host call of a particle-last kernel (:func:`padded_particles`); calls are padded
 #: to powers of two from it, so a run compiles a handful of sizes (filters' calls vary in length)
 MIN_BLOCK = 64
 
 
-def particles_as_rows(particles: np.ndarray, shape_values: np.ndarray) -> tuple:
-    """Host-side layout for the particle-last kernels (:func:`capsule_ends` and its callers).
+def padded_particles(particles: np.ndarray, shape_values: np.ndarray) -> tuple:
+    """Host-side padding for the particle-last kernels (:func:`capsule_ends` and its callers),
+    which take ``q.T`` (each DOF a row) on the device.
 
-    (N, D) particles -> ``(q_t, sv, n)``: ``q_t`` (D, B) float32 with each DOF a contiguous row,
-    B the next power of two >= N (at least :data:`MIN_BLOCK`), the padding columns copies of the
-    first particle (a real pose: no 0/0 on the padding); ``sv`` the shape values in float32, (P,)
-    as given or, for a body per particle (N, P), as (P, B) padded the same way; ``n`` = N, the
-    columns to keep of a result. N must be > 0."""
+    (N, D) particles -> ``(q, sv, n)``: ``q`` (B, D) float32, B the next power of two >= N (at
+    least :data:`MIN_BLOCK`), the padding rows copies of the first particle (a real pose: no 0/0
+    on the padding); ``sv`` the shape values in float32, (P,) as given or, for a body per particle
+    (N, P), (B, P) padded the same way; ``n`` = N, the entries to keep of a result. N must be > 0.
+
+    The rows are copied as they are: the transposed float32 copy the kernels used to get from the
+    host cost 0.7 ms of a tracked IPF frame with one camera (the lean prior's call), this copy and
+    the transpose on the device 0.2 (docs/benchmarks.md); the kernels see the same numbers."""
     n = len(particles)
     block = max(MIN_BLOCK, 1 << (n - 1).bit_length())
-    q_t = np.empty((np.shape(particles)[1], block), np.float32)
-    q_t[:, :n] = np.asarray(particles).T
-    q_t[:, n:] = q_t[:, :1]
+    q = np.empty((block, np.shape(particles)[1]), np.float32)
+    q[:n] = particles
+    q[n:] = q[:1]
     sv = np.asarray(shape_values, np.float32)
     if sv.ndim == 2:
-        sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)]).T.copy()
-    return q_t, sv, n
+        sv = np.concatenate([sv, np.repeat(sv[:1], block - n, axis=0)])
+    return q, sv, n
+
+
+def rows_of(q: jnp.ndarray, shape_values: jnp.ndarray) -> tuple:
+    """Inside a kernel: :func:`padded_particles`' ``q`` and ``sv`` with the particle axis last,
+    (D, B) and (P,) or (P, B)."""
+    return q.T, (shape_values.T if shape_values.ndim == 2 else shape_values)
 
 
 def capsule_ends(q_t: jnp.ndarray, shape_values: jnp.ndarray, up: jnp.ndarray) -> jnp.ndarray:

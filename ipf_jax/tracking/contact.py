@@ -30,7 +30,8 @@ from ..geometry.kinematics import (
     SEGMENT_ENDS,
     SEGMENT_RADII,
     capsule_ends,
-    particles_as_rows,
+    padded_particles,
+    rows_of,
 )
 from ..lowered import Program
 
@@ -38,10 +39,11 @@ DEFAULT_RANGE = (-0.03, 0.10)  # metres: 3 cm into soft ground/shoes, 10 cm of f
 
 
 @Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
-def _lowest_jit(q_t, shape_values, up):
-    """(D, B) particles as rows -> (B,) lowest capsule surface point over the floor, float32: the
-    scorer's particle-last forward kinematics of the distinct capsule ends, then each segment's
-    lower end less its radius."""
+def _lowest_jit(q, shape_values, up):
+    """(B, D) padded particles (:func:`padded_particles`) -> (B,) lowest capsule surface point
+    over the floor, float32: the scorer's particle-last forward kinematics of the distinct capsule
+    ends, then each segment's lower end less its radius."""
+    q_t, shape_values = rows_of(q, shape_values)
     ends = capsule_ends(q_t, shape_values, up)  # (3, K, B)
     height = up[0, 2] * ends[0] + up[1, 2] * ends[1] + up[2, 2] * ends[2]  # (K, B)
     r = shape_values[SEGMENT_RADII]  # (S, 2)
@@ -53,12 +55,12 @@ def lowest_heights(particles: np.ndarray, shape: BodyShape, U: np.ndarray) -> np
     """(N,) height above the floor of each particle's lowest capsule surface point (metres).
 
     One compiled float32 call, particle axis last, padded by
-    :func:`~ipf_jax.geometry.kinematics.particles_as_rows`; ``tracking.shape_fit.lowest_heights``
+    :func:`~ipf_jax.geometry.kinematics.padded_particles`; ``tracking.shape_fit.lowest_heights``
     is the float64 NumPy version the tests compare."""
     if len(particles) == 0:
         return np.empty(0)
-    q_t, sv, n = particles_as_rows(particles, shape.values)
-    out = _lowest_jit(q_t, sv, np.asarray(U, np.float32))
+    q, sv, n = padded_particles(particles, shape.values)
+    out = _lowest_jit(q, sv, np.asarray(U, np.float32))
     return np.asarray(out, np.float64)[:n]
 
 
