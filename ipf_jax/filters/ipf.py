@@ -109,8 +109,7 @@ def build(settings: IPFSettings, limits: Limits, fps: float) -> Filter:
         # drawn ahead by the caller, or dispatched first: drawn while the host selects
         z = drawn if drawn is not None and drawn.shape == (n, len(R)) else draws(rng_key)
         kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
-        noise = np.asarray(z, np.float64)
-        noise *= std_r  # (N, |R|)
+        noise = np.multiply(np.asarray(z), std_r, dtype=np.float64)  # (N, |R|); float32 widened exactly
         new = np.empty((n, NUM_DOF))  # each particle's offset from its kept particle, then the sum
         for dst, src in runs_r:
             new[:, dst] = noise[:, src]
