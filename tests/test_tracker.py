@@ -60,7 +60,7 @@ def test_same_seed_same_files(scene, tmp_path):
 @pytest.mark.parametrize("name,options", [("ipf", {"top_m": 4}), ("fipf", {"top_m": 2, "points_per_dof": 2}),
                                           ("apf", {"particles": 200, "layers": 2})])
 def test_draws_made_ahead_are_used_and_change_nothing(scene, tmp_path, name, options):
-    """The tracker dispatches the next frame's draws while it writes files: every tracked frame's
+    """The tracker dispatches the next frames' draws once a frame is measured: every tracked frame's
     step gets them, and the files are byte for byte those of a run that draws inside the step."""
     from ipf_jax.tracking.tracker import Tracker
 

@@ -42,8 +42,9 @@ class Filter(NamedTuple):
     (:func:`ipf_jax.likelihood.scorer.pick_chunk`).
 
     draws : optional ``draws(rng_key)``: the step's random numbers for ``rng_key``, dispatched
-    ahead (device arrays, computed while the host does other work: the tracker asks for the next
-    frame's while it writes this frame's files and reads the next masks). A filter that has it
+    ahead (device arrays, computed while the host does other work: once a frame is measured the
+    tracker asks for the next two frames', while it checks and writes this frame and selects the
+    next). A filter that has it
     takes them as ``step(rng_key, state, measure, drawn=...)`` and uses them when their shapes are
     the ones it needs, else draws again: the same numbers either way, bit for bit.
     """
