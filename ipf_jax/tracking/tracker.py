@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import statistics
 import threading
 import time
 import warnings
@@ -177,13 +178,11 @@ def check_cameras_see(foot: np.ndarray, up: np.ndarray, cameras: list[Camera],
 
 
 def median(values) -> float:
-    """``np.median`` of a few floats, the same number (NaN when one is NaN), without its ~0.1 ms of
-    array overhead (every tracked frame takes the median of its last weights)."""
-    v = sorted(float(x) for x in values)
-    if any(x != x for x in v):
-        return float("nan")
-    m = len(v) // 2
-    return v[m] if len(v) % 2 else (v[m - 1] + v[m]) / 2
+    """``np.median`` of a few floats, the same number (NaN when one is NaN, where
+    :func:`statistics.median`'s sort has no order), without its ~0.1 ms of array overhead (every
+    tracked frame takes the median of its last weights)."""
+    v = [float(x) for x in values]
+    return float("nan") if any(x != x for x in v) else statistics.median(v)
 
 
 @Program  # a jit whose lowering is kept on disk (ipf_jax.lowered)
