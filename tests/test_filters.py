@@ -89,6 +89,19 @@ def test_top_distinct_matches_deduplicating_the_whole_sorted_set(seed):
         w[rng.random(n) < 0.1] = -np.inf
         num = int(rng.integers(1, 2 * n + 2))
         np.testing.assert_array_equal(top_distinct(x, w, num), _top_distinct_by_definition(x, w, num))
+        shift = rng.choice([0.0, -0.0, 1e-17, 0.3, 1e16], size=d)  # 1e16 rounds rows together
+        np.testing.assert_array_equal(top_distinct(x, w, num, shift),
+                                      _top_distinct_by_definition(x + shift, w, num))
+
+
+def test_top_distinct_with_non_finite_rows_among_the_examined_or_not():
+    """A NaN or an infinity among the examined rows takes the general comparison; one outside
+    them does not change the result."""
+    x = np.array([[1.0, 0.0], [1.0, -0.0], [np.nan, 2.0], [3.0, np.inf], [4.0, 4.0], [1.0, 0.0]])
+    for w in ([5, 4, 3, 2, 1, 0], [5, 4, 0, 1, 3, 2], [0, 1, 5, 4, 3, 2]):
+        w = np.array(w, float)
+        for num in (1, 2, 3, 4, 7):
+            np.testing.assert_array_equal(top_distinct(x, w, num), _top_distinct_by_definition(x, w, num))
 
 
 # -- APF annealing ----------------------------------------------------------------------------
@@ -438,6 +451,36 @@ def test_draws_given_ahead_are_the_draws_of_the_step(name):
     assert seen_by(few, drawn=f.draws(key)) == seen_by(few)
     other = registry.make(name, {}, LIMITS, FPS, 300)  # another budget: draws of other shapes
     assert seen_by(state, drawn=other.draws(key)) == seen_by(state)
+
+
+@pytest.mark.parametrize("name", ["ipf", "fipf", "apf", "sir"])
+def test_a_shifted_step_is_the_step_of_the_moved_particles(name):
+    """``step(..., shift=s)`` sees bit for bit the particles of ``step`` on ``moved(state, s)``
+    (IPF and the factored filter shift only the particles they keep), also where the shift
+    rounds two particles together."""
+    from ipf_jax.filters.base import moved
+
+    f = registry.make(name, {}, LIMITS, FPS, 600)
+    rng = np.random.default_rng(3)
+    particles = LIMITS.clip(rng.normal(0, 0.3, (80, NUM_DOF)))
+    particles[:, :3] = rng.normal(0, 2.0, (80, 3))
+    particles[1] = particles[0]
+    particles[1, 0] = np.nextafter(particles[0, 0], np.inf)  # one ulp apart: one row once moved
+    weights = rng.uniform(0, 1, 80)
+    weights[:2] = 2.0, 1.9
+    shift = np.r_[1e3 * rng.normal(size=3), np.zeros(NUM_DOF - 3)]
+    assert (particles[0] + shift == particles[1] + shift).all()
+    key = jax.random.PRNGKey(4)
+
+    def seen_by(state, **kw):
+        seen = []
+        f.step(key, state, lambda x: seen.append(x) or np.ones(len(x)), **kw)
+        return b"".join(x.tobytes() for x in seen)
+
+    state = f.init(particles, weights)
+    assert seen_by(state, shift=shift) == seen_by(moved(state, shift))
+    assert seen_by(state, shift=shift, drawn=f.draws(key)) == seen_by(moved(state, shift))
+    assert seen_by(state, shift=None) == seen_by(state)
 
 
 def _ipf_step_by_definition(settings, limits, key, particles, weights):

@@ -33,6 +33,7 @@ from .base import (
     FilterState,
     default_noise_rates,
     init_state,
+    moved,
     rate_std,
     resample_diffuse,
     resample_draws,
@@ -185,8 +186,9 @@ def build(settings: APFSettings, limits: Limits, fps: float) -> Filter:
 
     last = []  # [(likelihood, its annealed weights)] of the last layer of the last step
 
-    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
-        x = state.particles
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None,
+             shift: np.ndarray | None = None):
+        x = moved(state, shift).particles
         if drawn is None or len(drawn) != layers or drawn[0][1].shape != (n, NUM_DOF):
             drawn = draws(rng_key)  # every layer's
         if last and np.array_equal(last[0][0], state.weights, equal_nan=True):

@@ -41,6 +41,11 @@ class Filter(NamedTuple):
     ``evaluations_per_frame``); the tracker sizes the scorer's compiled calls from them
     (:func:`ipf_jax.likelihood.scorer.pick_chunk`).
 
+    step : ``step(rng_key, state, measure, drawn=None, shift=None)``; ``shift`` (D,) moves every
+    particle of ``state`` first (the tracker's body-origin shift): the step's result is that of
+    ``step(rng_key, moved(state, shift), measure)``, a filter that keeps a few particles shifting
+    only those (IPF, the factored filter: no N x D copy).
+
     draws : optional ``draws(rng_key)``: the step's random numbers for ``rng_key``, dispatched
     ahead (device arrays, computed while the host does other work: once a frame is measured the
     tracker asks for the next two frames', while it checks and writes this frame and selects the
@@ -51,11 +56,19 @@ class Filter(NamedTuple):
 
     name: str
     init: Callable[[np.ndarray, np.ndarray], FilterState]
-    step: Callable[..., tuple[FilterState, FilterInfo]]  # (rng_key, state, measure[, drawn=])
+    step: Callable[..., tuple[FilterState, FilterInfo]]  # (rng_key, state, measure[, drawn=, shift=])
     evaluations_per_frame: int
     params: dict
     calls: tuple[int, ...] = ()
     draws: Callable[[jax.Array], object] | None = None
+
+
+def moved(state: FilterState, shift: np.ndarray | None) -> FilterState:
+    """``state`` with ``shift`` (D,) added to every particle (a new array); ``state`` for None.
+    The filters that read every particle start with it; those that keep a few shift those."""
+    if shift is None:
+        return state
+    return FilterState(state.particles + shift, state.weights)
 
 
 def init_state(particles: np.ndarray, weights: np.ndarray) -> FilterState:

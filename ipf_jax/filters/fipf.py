@@ -290,8 +290,11 @@ def build(settings: FIPFSettings, limits: Limits, fps: float, body: posture.Body
     def draws(rng_key: jax.Array) -> tuple:
         return _split_and_draw(rng_key, n_keys, shapes_for(m))
 
-    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
-        kept = state.particles[top_distinct(state.particles, state.weights, m)]  # (M, D)
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None,
+             shift: np.ndarray | None = None):
+        kept = state.particles[top_distinct(state.particles, state.weights, m, shift)]  # (M, D)
+        if shift is not None:  # moved as the whole set would be: the same sums
+            kept += shift
         seen_p, seen_w = [], []
         shapes = shapes_for(len(kept))
         if drawn is None or tuple(a.shape for a in drawn[1]) != tuple(s for _, s in shapes):

@@ -38,32 +38,47 @@ def _first_distinct(rows: np.ndarray) -> np.ndarray:
     return np.sort(first)
 
 
-def top_distinct(particles: np.ndarray, weights: np.ndarray, num: int) -> np.ndarray:
+def top_distinct(particles: np.ndarray, weights: np.ndarray, num: int,
+                 shift: np.ndarray | None = None) -> np.ndarray:
     """Indices of the ``num`` heaviest *distinct* particles (distinct = different state vector).
 
     If fewer distinct particles exist, the distinct ones are cycled in weight order so the
     result always has ``num`` entries (fixed shapes downstream).
 
+    ``shift`` (D,): the particles are compared as ``particles + shift`` (two rows a shift rounds
+    together are one), the indices those of ``top_distinct(particles + shift, ...)`` without
+    shifting the whole set: only the rows examined are.
+
     Only a prefix of the weight order is examined: the heaviest ``k`` particles (``k = num``, then
     4x more while duplicates leave fewer than ``num`` distinct ones). The first occurrences within a
     prefix are the first occurrences in the whole order, so the result is that of deduplicating the
-    whole sorted set.
+    whole sorted set. Rows are compared as bytes while the examined ones are finite; a NaN or an
+    infinity among them sends the whole set to NumPy's float comparison of rows (the same result
+    for finite rows, slower), so only the examined rows are checked.
     """
     particles = np.asarray(particles)
-    if not np.all(np.isfinite(particles)):  # NaN rows: the general (slow) float comparison
-        order = stable_order(weights)
-        _, first = np.unique(particles[order], axis=0, return_index=True)
-        distinct = order[np.sort(first)]
-        return distinct[:num] if len(distinct) >= num else np.resize(distinct, num)
+    moved = (lambda rows: rows) if shift is None else (lambda rows: rows + shift)
     k = max(int(num), 1)
     while True:
         cand = heaviest(weights, k)
-        distinct = cand[_first_distinct(particles[cand])]
+        rows = moved(particles[cand])
+        if not np.all(np.isfinite(rows)):
+            return _top_distinct_any(moved(particles), weights, num)
+        distinct = cand[_first_distinct(rows)]
         if len(distinct) >= num:
             return distinct[:num]
         if len(cand) >= len(particles):
             return np.resize(distinct, num)
         k *= 4
+
+
+def _top_distinct_any(particles: np.ndarray, weights: np.ndarray, num: int) -> np.ndarray:
+    """:func:`top_distinct` of rows that may hold NaN or infinities: NumPy's row comparison of
+    the whole set in weight order."""
+    order = stable_order(weights)
+    _, first = np.unique(particles[order], axis=0, return_index=True)
+    distinct = order[np.sort(first)]
+    return distinct[:num] if len(distinct) >= num else np.resize(distinct, num)
 
 
 def systematic(rng_key: jax.Array, weights: np.ndarray, num_samples: int) -> np.ndarray:

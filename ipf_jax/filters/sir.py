@@ -24,6 +24,7 @@ from .base import (
     FilterState,
     default_noise_rates,
     init_state,
+    moved,
     rate_std,
     resample_diffuse,
     resample_draws,
@@ -51,7 +52,9 @@ def build(settings: SIRSettings, limits: Limits, fps: float) -> Filter:
     def draws(rng_key: jax.Array) -> tuple:
         return resample_draws(rng_key, (n, NUM_DOF))
 
-    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None):
+    def step(rng_key: jax.Array, state: FilterState, measure, drawn: tuple | None = None,
+             shift: np.ndarray | None = None):
+        state = moved(state, shift)
         drawn = drawn if drawn is not None and drawn[1].shape == (n, NUM_DOF) else None
         new = resample_diffuse(rng_key, state.particles, state.weights, std, limits, n, drawn)  # (N, D)
         weights = np.asarray(measure(new), float)

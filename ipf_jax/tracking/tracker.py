@@ -57,7 +57,7 @@ from ..data.runfiles import (
 from ..data.silhouette import resize_mask
 from ..errors import IPFError, IPFWarning, require
 from ..filters import registry
-from ..filters.base import Filter, FilterState, best_index
+from ..filters.base import Filter, best_index
 from ..filters.posture import Body
 from ..geometry.camera import Z_NEAR, Camera
 from ..geometry.host import joint_points, project_points
@@ -506,13 +506,12 @@ class Tracker:
              log: list | None = None) -> tuple[TrackState, int]:
         """Select, predict, measure: one step of the filter, every particle's root moved first
         by the body origin's shift. Returns the state and the evaluations spent."""
-        moved = FilterState(state.filter.particles + np.r_[shift, np.zeros(NUM_DOF - 3)],
-                            state.filter.weights)
         given = self._ahead.pop(frame, None)
         key, drawn = ((given[0], {"drawn": given[1]}) if given is not None
                       else (self.frame_key(frame), {}))
-        filt, info = self.filter_for(state.shape).step(key, moved, self.measure(seen.obs, state.shape, log),
-                                                       **drawn)
+        filt, info = self.filter_for(state.shape).step(key, state.filter,
+                                                       self.measure(seen.obs, state.shape, log),
+                                                       shift=np.r_[shift, np.zeros(NUM_DOF - 3)], **drawn)
         return state._replace(filter=filt), info.evaluations
 
     def draw_ahead(self, state: TrackState, frames: tuple[int, ...]) -> None:
