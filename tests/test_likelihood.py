@@ -1,4 +1,5 @@
 """The batched scorer: agreement with the NumPy pipeline, chunk/ROI invariance, weight rules."""
+import itertools
 import numpy as np
 import pytest
 
@@ -340,8 +341,9 @@ def test_new_frame_shrinks_windows_after_a_wide_search_and_keeps_counts(scene):
 
 def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
     """The block program runs the forward kinematics and projection on all its chunks at once and
-    the records chunk by chunk: every record and extent equals K one-chunk calls', for one body
-    and for a body per particle (the shape fit's candidates)."""
+    the row coefficients chunk by chunk (the records alone block-wide): every record and extent
+    equals K one-chunk calls', for one body and for a body per particle (the shape fit's
+    candidates), with the scanline kernel's row coefficients and with the records alone."""
     import jax
 
     from ipf_jax.likelihood import scorer as sc
@@ -352,11 +354,11 @@ def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
     rng = np.random.default_rng(1)
     bodies = (np.asarray(SHAPE.values, np.float32) * rng.uniform(0.9, 1.1, (5, 8, len(SHAPE.values)))
               ).astype(np.float32)
-    for sv in (np.asarray(SHAPE.values, np.float32), bodies):
+    for sv, scan_q in itertools.product((np.asarray(SHAPE.values, np.float32), bodies), (s.q, 0)):
         recs, ext = sc._geometry_calls_jit(block, sv, s.up, s.cams, None, long_side=s.long_side,
-                                           scan_q=s.q)
+                                           scan_q=scan_q)
         ones = [sc._geometry_jit(block[k], sv if sv.ndim == 1 else sv[k], s.up, s.cams,
-                                 long_side=s.long_side, scan_q=s.q) for k in range(5)]
+                                 long_side=s.long_side, scan_q=scan_q) for k in range(5)]
         for k, (rec_k, ext_k) in enumerate(ones):
             for got, want in zip(jax.tree.leaves(recs), jax.tree.leaves(rec_k)):
                 np.testing.assert_array_equal(np.asarray(got)[k], np.asarray(want))

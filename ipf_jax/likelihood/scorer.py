@@ -341,6 +341,13 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     sv = shape_values if shape_values.ndim == 1 else jnp.moveaxis(shape_values, -1, 0)
     proj = projected_ends(q_t, sv, up, cams)  # (K, C, E, B) each
     discs = jax.lax.optimization_barrier(end_discs(proj, sv[SEGMENT_RADII], cams))  # (K, C, S, B)
+    if not scan_q:
+        # the records alone are elementwise: block-wide, one pass (chunk by chunk into the
+        # buffers, a block took 1.15-1.2x as long on the Zen 4 EPYC: docs/benchmarks.md); the
+        # donated buffers are the outputs' shapes, so XLA may write into them
+        caps = jax.lax.optimization_barrier(tuple(outline_fields(jnp, *discs)))  # 15 x (K, C, S, B)
+        ext = segment_extent_fields(jnp, lambda i: caps[i], long_side)  # (K, C, S, B, 4)
+        return caps, box_union(jnp, box_union(jnp, ext, 3), 0)
 
     def chunk(k):
         return _records(jax.tree.map(lambda a: a[k], discs), long_side, scan_q)
