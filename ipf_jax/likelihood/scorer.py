@@ -328,10 +328,11 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
 
     The forward kinematics, the projection of the capsule ends and the segments' end discs run on
     all K x B particles at once (their arrays are small, and per chunk their many short loops cost
-    more to start than to run; the discs block-wide: 1.07-1.09x, docs/benchmarks.md); the records,
-    extents and row coefficients chunk by chunk, each on a chunk's working set (over a whole block
-    of 4 cameras they left the caches and ran 1.6x slower). Every number is the one K calls of
-    :func:`_geometry_impl` give (docs/benchmarks.md).
+    more to start than to run; the discs block-wide: 1.07-1.09x, docs/benchmarks.md); the row
+    coefficients (``scan_q``) chunk by chunk with their records and extents, each on a chunk's
+    working set (over a whole block of 4 cameras they left the caches and ran 1.6x slower), the
+    records alone block-wide. Every number is the one K calls of :func:`_geometry_impl` give
+    (docs/benchmarks.md).
 
     ``outs``: buffers of the records to write the chunks into (:func:`record_buffers`; the
     program is called with them donated: a finished call's records, so XLA does not fill a new
