@@ -123,3 +123,35 @@ def test_sigterm_keeps_every_finished_frame_for_resume(walk, tmp_path):
     assert main(track_argv(walk, cut, *every, "--resume")) == 0
     for name in ("joints.csv", "poses.csv"):
         assert (cut / name).read_bytes() == (full / name).read_bytes(), name
+
+
+def test_a_sigterm_whose_exception_was_lost_still_stops_the_run(walk, tmp_path, monkeypatch, capsys):
+    """A signal handler's exception raised inside a ``__del__`` or a C callback is printed and
+    dropped by Python; the stop it asked for is recorded, and the frame loop ends the run at the
+    next frame like any SIGTERM: exit 143, the frames done kept, resumable to the same bytes."""
+    from ipf_jax import stop
+    from ipf_jax.tracking.tracker import Tracker
+
+    full, cut = tmp_path / "full", tmp_path / "cut"
+    assert main(track_argv(walk, full)) == 0
+    real = Tracker.track_frame
+
+    def track_frame(self, state, frame, *args, **kwargs):
+        out = real(self, state, frame, *args, **kwargs)
+        if frame == 4:
+            try:
+                stop.request()  # the handler's raise, lost where it landed
+            except stop.Terminated:
+                pass
+        return out
+
+    monkeypatch.setattr(Tracker, "track_frame", track_frame)
+    capsys.readouterr()
+    assert main(track_argv(walk, cut)) == 128 + signal.SIGTERM
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("terminated")
+    assert data_rows(cut / "joints.csv") == 5  # frames 0-4, the one it was asked during included
+    stop.check()  # the command's end cleared it
+    monkeypatch.setattr(Tracker, "track_frame", real)
+    assert main(track_argv(walk, cut, "--resume")) == 0
+    for name in ("joints.csv", "poses.csv"):
+        assert (cut / name).read_bytes() == (full / name).read_bytes(), name

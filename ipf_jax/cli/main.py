@@ -12,8 +12,9 @@ import sys
 import threading
 import warnings
 
-from .. import __version__
+from .. import __version__, stop
 from ..errors import IPFError, IPFWarning
+from ..stop import Terminated
 
 #: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets
 #: ``func=run`` (``run(args) -> int`` handles IPFError itself or lets :func:`main` do it).
@@ -105,19 +106,15 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (a batch scheduler's stop, ``kill``): unwound like Ctrl-C, so a run keeps its rows
-    and checkpoint and says so, instead of dying where it stands."""
+        stop.clear()
 
 
 def _raise_terminated(signum, frame):
-    raise Terminated()
+    stop.request()  # recorded as well: loops check it, should this exception be lost
 
 
 def _on_sigterm():
-    """SIGTERM raises :class:`Terminated` while a command runs (main thread only); returns the
+    """SIGTERM raises :class:`~ipf_jax.stop.Terminated` while a command runs (main thread only); returns the
     handler to put back, or None when it cannot be set here."""
     if threading.current_thread() is not threading.main_thread():
         return None

@@ -36,7 +36,7 @@ import jax
 import numpy as np
 from tqdm import tqdm
 
-from .. import __version__
+from .. import __version__, stop
 from ..jax_setup import host_cpu
 from ..body.limits import Limits, limits_to_json, load_limits
 from ..body.model import DOF_NAMES, NUM_DOF, NUM_POINTS
@@ -722,6 +722,7 @@ class Tracker:
 
         try:
             for frame in bar:
+                stop.check()  # a SIGTERM whose exception was lost (in a __del__, a callback)
                 t0 = time.perf_counter()
                 seen = reader.take(frame)
                 ahead = tuple(self.frames[state.next_index + 1:state.next_index + 3])
