@@ -6,6 +6,7 @@ real people. All scoring shares one small scene and one chunk size (one set of c
 """
 from __future__ import annotations
 
+import functools
 import json
 
 import jax
@@ -439,18 +440,20 @@ def test_draws_given_ahead_are_the_draws_of_the_step(name):
     particles = LIMITS.clip(rng.normal(0, 0.3, (80, NUM_DOF)))
     weights = rng.uniform(0, 1, 80)
     key = jax.random.PRNGKey(9)
-
-    def seen_by(state, **drawn):
-        seen = []
-        f.step(key, state, lambda x: seen.append(x) or np.ones(len(x)), **drawn)
-        return b"".join(x.tobytes() for x in seen)
-
+    seen_by = functools.partial(_seen_by, f, key)
     state = f.init(particles, weights)
     assert seen_by(state, drawn=f.draws(key)) == seen_by(state)
     few = f.init(particles[:1], weights[:1])  # one particle: fewer than M kept
     assert seen_by(few, drawn=f.draws(key)) == seen_by(few)
     other = registry.make(name, {}, LIMITS, FPS, 300)  # another budget: draws of other shapes
     assert seen_by(state, drawn=other.draws(key)) == seen_by(state)
+
+
+def _seen_by(f, key, state, **kwargs) -> bytes:
+    """The bytes of every particle set ``f.step(key, state, ..., **kwargs)`` measures."""
+    seen = []
+    f.step(key, state, lambda x: seen.append(x) or np.ones(len(x)), **kwargs)
+    return b"".join(x.tobytes() for x in seen)
 
 
 @pytest.mark.parametrize("name", ["ipf", "fipf", "apf", "sir"])
@@ -471,12 +474,7 @@ def test_a_shifted_step_is_the_step_of_the_moved_particles(name):
     shift = np.r_[1e3 * rng.normal(size=3), np.zeros(NUM_DOF - 3)]
     assert (particles[0] + shift == particles[1] + shift).all()
     key = jax.random.PRNGKey(4)
-
-    def seen_by(state, **kw):
-        seen = []
-        f.step(key, state, lambda x: seen.append(x) or np.ones(len(x)), **kw)
-        return b"".join(x.tobytes() for x in seen)
-
+    seen_by = functools.partial(_seen_by, f, key)
     state = f.init(particles, weights)
     assert seen_by(state, shift=shift) == seen_by(moved(state, shift))
     assert seen_by(state, shift=shift, drawn=f.draws(key)) == seen_by(moved(state, shift))

@@ -1,5 +1,6 @@
 """The batched scorer: agreement with the NumPy pipeline, chunk/ROI invariance, weight rules."""
 import itertools
+
 import numpy as np
 import pytest
 
