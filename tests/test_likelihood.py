@@ -366,3 +366,23 @@ def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
         every = np.stack([np.asarray(e) for _, e in ones])
         np.testing.assert_array_equal(ext, np.stack([every[..., 0].min(0), every[..., 1].max(0),
                                                      every[..., 2].min(0), every[..., 3].max(0)], -1))
+
+
+def test_the_records_alone_block_wide_or_chunk_by_chunk_are_the_same(scene, monkeypatch):
+    """The records alone go block-wide up to ``BLOCK_WIDE_BYTES`` and chunk by chunk beyond: the
+    same records and extents either way."""
+    import jax
+
+    from ipf_jax.likelihood import scorer as sc
+
+    cams, q, masks, particles = scene
+    s = Scorer(cams, SHAPE, U, chunk=8)
+    block = particles.reshape(5, 8, -1).astype(np.float32)
+    sv = np.asarray(SHAPE.values, np.float32)
+    got = {}
+    for limit in (sc.BLOCK_WIDE_BYTES, 0):
+        monkeypatch.setattr(sc, "BLOCK_WIDE_BYTES", limit)
+        fresh = jax.jit(sc._geometry_calls_impl, static_argnames=("long_side", "scan_q"))  # traced anew
+        got[limit] = jax.tree.leaves(fresh(block, sv, s.up, s.cams, None, long_side=s.long_side, scan_q=0))
+    for wide, chunked in zip(*got.values()):
+        np.testing.assert_array_equal(np.asarray(wide), np.asarray(chunked))

@@ -321,6 +321,13 @@ for _t in (CameraArrays, RowCoeffs, RowList):  # the stages' named-tuple argumen
     register_namedtuple(_t)
 
 
+#: Largest block of records (15 float32 fields per capsule, camera and particle) written block-wide
+#: rather than chunk by chunk: 16.4 MB ran 1.09-1.2x faster so, 27 MB 0.94x (the Zen 4 EPYC,
+#: twenty-ninth session; on the Xeon of the tenth, 27 MB of records and row coefficients block-wide
+#: ran 0.64x)
+BLOCK_WIDE_BYTES = 20 << 20
+
+
 def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     """Stage 1 for K chunks in one program: (K, B, D) particles -> the records of
     :func:`_geometry_impl` with a leading K axis, and the (C, S, 4) extents over all K chunks.
@@ -331,8 +338,8 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     more to start than to run; the discs block-wide: 1.07-1.09x, docs/benchmarks.md); the row
     coefficients (``scan_q``) chunk by chunk with their records and extents, each on a chunk's
     working set (over a whole block of 4 cameras they left the caches and ran 1.6x slower), the
-    records alone block-wide. Every number is the one K calls of :func:`_geometry_impl` give
-    (docs/benchmarks.md).
+    records alone block-wide up to :data:`BLOCK_WIDE_BYTES`. Every number is the one K calls of
+    :func:`_geometry_impl` give (docs/benchmarks.md).
 
     ``outs``: buffers of the records to write the chunks into (:func:`record_buffers`; the
     program is called with them donated: a finished call's records, so XLA does not fill a new
@@ -342,10 +349,11 @@ def _geometry_calls_impl(q, shape_values, up, cams, outs, long_side, scan_q):
     sv = shape_values if shape_values.ndim == 1 else jnp.moveaxis(shape_values, -1, 0)
     proj = projected_ends(q_t, sv, up, cams)  # (K, C, E, B) each
     discs = jax.lax.optimization_barrier(end_discs(proj, sv[SEGMENT_RADII], cams))  # (K, C, S, B)
-    if not scan_q:
-        # the records alone are elementwise: block-wide, one pass (chunk by chunk into the
-        # buffers, a block took 1.15-1.2x as long on the Zen 4 EPYC: docs/benchmarks.md); the
-        # donated buffers are the outputs' shapes, so XLA may write into them
+    if not scan_q and 60 * discs[0].size <= BLOCK_WIDE_BYTES:
+        # the records alone are elementwise: block-wide in one pass while they stay small (a
+        # block of 4 cameras x 8 x 504 took 1.09-1.2x as long chunk by chunk into the buffers,
+        # one of 16 x 416 0.94x: docs/benchmarks.md); the donated buffers are the outputs' shapes,
+        # so XLA may write into them
         caps = jax.lax.optimization_barrier(tuple(outline_fields(jnp, *discs)))  # 15 x (K, C, S, B)
         ext = segment_extent_fields(jnp, lambda i: caps[i], long_side)  # (K, C, S, B, 4)
         return caps, box_union(jnp, box_union(jnp, ext, 3), 0)
