@@ -368,9 +368,13 @@ def test_a_block_geometry_equals_its_chunks_one_by_one(scene):
                                                      every[..., 2].min(0), every[..., 3].max(0)], -1))
 
 
+RECORD_TOL_PX = 1e-4  # two compiled forms of the same float32 geometry
+
+
 def test_the_records_alone_block_wide_or_chunk_by_chunk_are_the_same(scene, monkeypatch):
     """The records alone go block-wide up to ``BLOCK_WIDE_BYTES`` and chunk by chunk beyond: the
-    same records and extents either way."""
+    same records and extents either way, to the last bits of a float (the two compiled forms may
+    round differently: the records are geometry, held to a tolerance; measured 7.6e-6 px here)."""
     import jax
 
     from ipf_jax.likelihood import scorer as sc
@@ -382,7 +386,8 @@ def test_the_records_alone_block_wide_or_chunk_by_chunk_are_the_same(scene, monk
     got = {}
     for limit in (sc.BLOCK_WIDE_BYTES, 0):
         monkeypatch.setattr(sc, "BLOCK_WIDE_BYTES", limit)
-        fresh = jax.jit(sc._geometry_calls_impl, static_argnames=("long_side", "scan_q"))  # traced anew
+        fresh = jax.jit(lambda *a, **k: sc._geometry_calls_impl(*a, **k),  # a new function: traced anew
+                        static_argnames=("long_side", "scan_q"), compiler_options=sc.COMPILER_OPTIONS)
         got[limit] = jax.tree.leaves(fresh(block, sv, s.up, s.cams, None, long_side=s.long_side, scan_q=0))
     for wide, chunked in zip(*got.values()):
-        np.testing.assert_array_equal(np.asarray(wide), np.asarray(chunked))
+        np.testing.assert_allclose(np.asarray(wide), np.asarray(chunked), rtol=0, atol=RECORD_TOL_PX)

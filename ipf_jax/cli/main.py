@@ -79,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = _parser(argv)
     args = ap.parse_args(argv)
     warnings.showwarning = _show_warning
+    stop.clear()  # a stop left over from an earlier command in this process is not this one's
     previous = _on_sigterm()
     try:
         from .. import jax_setup
