@@ -14,7 +14,6 @@ import warnings
 
 from .. import __version__, stop
 from ..errors import IPFError, IPFWarning
-from ..stop import Terminated
 
 #: Commands living in their own modules: each exposes ``add_parser(subparsers)`` that sets
 #: ``func=run`` (``run(args) -> int`` handles IPFError itself or lets :func:`main` do it).
@@ -90,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     except IPFError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    except Terminated:
+    except stop.Terminated:
         print("terminated (rows written so far are kept; rerun with --resume)", file=sys.stderr)
         return 128 + signal.SIGTERM
     except KeyboardInterrupt:
